@@ -1,0 +1,142 @@
+//! The pinhole camera and its ray differentials.
+
+use crate::differential::RayDifferential;
+use glam::DVec3;
+
+/// A pinhole camera. Pixel `(0, 0)` is the top-left; pixel `(i, j)` covers
+/// `[i, i+1] x [j, j+1]` in continuous pixel coordinates `(x, y)`, `y` growing downwards.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Camera {
+    /// Eye position.
+    pub eye: DVec3,
+    /// Unit view direction.
+    pub forward: DVec3,
+    /// Unit right vector of the image plane.
+    pub right: DVec3,
+    /// Unit up vector of the image plane.
+    pub up: DVec3,
+    /// `tan(fov_y / 2)`.
+    pub tan_half_fov: f64,
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+}
+
+impl Camera {
+    /// A camera at `eye` looking at `look_at`, `up` giving the vertical, with a vertical field
+    /// of view of `fov_y_degrees`. `None` when the view direction is zero or parallel to `up`.
+    pub fn look_at(
+        eye: DVec3,
+        look_at: DVec3,
+        up: DVec3,
+        fov_y_degrees: f64,
+        width: u32,
+        height: u32,
+    ) -> Option<Self> {
+        let forward = (look_at - eye).try_normalize()?;
+        let right = forward.cross(up).try_normalize()?;
+        if forward.cross(up).length() < 1e-9 * up.length() {
+            return None;
+        }
+        let up = right.cross(forward);
+        Some(Camera {
+            eye,
+            forward,
+            right,
+            up,
+            tan_half_fov: (fov_y_degrees.to_radians() * 0.5).tan(),
+            width,
+            height,
+        })
+    }
+
+    fn aspect(&self) -> f64 {
+        self.width as f64 / self.height as f64
+    }
+
+    /// Un-normalised direction `d = V + sx R + sy U` through continuous pixel coordinates.
+    fn direction(&self, x: f64, y: f64) -> DVec3 {
+        let sx = (2.0 * x / self.width as f64 - 1.0) * self.tan_half_fov * self.aspect();
+        let sy = (1.0 - 2.0 * y / self.height as f64) * self.tan_half_fov;
+        self.forward + self.right * sx + self.up * sy
+    }
+
+    /// The ray through continuous pixel coordinates `(x, y)`, with differentials with respect to
+    /// `x` and `y` scaled by `spacing` (1 for a ray per pixel; `1/N` for an N x N grid), so that
+    /// its footprint is the parallelogram `P +- dP/du / 2 +- dP/dv / 2` of one (sub-)pixel.
+    ///
+    /// `dD/dx = ((d.d) dd/dx - (d . dd/dx) d) / (d.d)^(3/2)`, `dP = 0`.
+    pub fn ray(&self, x: f64, y: f64, spacing: f64) -> RayDifferential {
+        let d = self.direction(x, y);
+        let dd_dx = self.right * (2.0 * self.tan_half_fov * self.aspect() / self.width as f64);
+        let dd_dy = self.up * (-2.0 * self.tan_half_fov / self.height as f64);
+        let dd2 = d.dot(d);
+        let norm = |dd: DVec3| (dd * dd2 - d * d.dot(dd)) / dd2.powf(1.5) * spacing;
+        RayDifferential {
+            p: self.eye,
+            d: d / dd2.sqrt(),
+            dp: [DVec3::ZERO; 2],
+            dd: [norm(dd_dx), norm(dd_dy)],
+        }
+    }
+
+    /// Continuous pixel coordinates where `point` projects, or `None` behind the camera.
+    pub fn project(&self, point: DVec3) -> Option<(f64, f64)> {
+        let v = point - self.eye;
+        let z = v.dot(self.forward);
+        if z <= 0.0 {
+            return None;
+        }
+        let sx = v.dot(self.right) / z;
+        let sy = v.dot(self.up) / z;
+        let x = (sx / (self.tan_half_fov * self.aspect()) + 1.0) * 0.5 * self.width as f64;
+        let y = (1.0 - sy / self.tan_half_fov) * 0.5 * self.height as f64;
+        Some((x, y))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn camera() -> Camera {
+        Camera::look_at(
+            DVec3::new(2.5, 4.5, 7.0),
+            DVec3::new(0.4, 0.4, 0.3),
+            DVec3::Y,
+            40.0,
+            640,
+            480,
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn project_inverts_ray_and_centre_looks_forward() {
+        let c = camera();
+        let r = c.ray(320.0, 240.0, 1.0);
+        assert!((r.d - c.forward).length() < 1e-12);
+        let (x, y) = c.project(c.eye + c.ray(12.25, 400.5, 1.0).d * 3.0).unwrap();
+        assert!((x - 12.25).abs() < 1e-9 && (y - 400.5).abs() < 1e-9);
+        // The top edge is at half the field of view above the axis.
+        let top = c.ray(320.0, 0.0, 1.0).d;
+        assert!((top.dot(c.forward).acos().to_degrees() - 20.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn direction_differentials_match_finite_differences() {
+        let c = camera();
+        let (x, y, h) = (100.3, 71.9, 1e-5);
+        let r = c.ray(x, y, 1.0);
+        let fd_x = (c.ray(x + h, y, 1.0).d - c.ray(x - h, y, 1.0).d) / (2.0 * h);
+        let fd_y = (c.ray(x, y + h, 1.0).d - c.ray(x, y - h, 1.0).d) / (2.0 * h);
+        assert!((r.dd[0] - fd_x).length() < 1e-8 * fd_x.length().max(1e-3) * 1e3);
+        assert!((r.dd[1] - fd_y).length() < 1e-8 * fd_y.length().max(1e-3) * 1e3);
+    }
+
+    #[test]
+    fn up_parallel_to_view_is_rejected() {
+        assert!(Camera::look_at(DVec3::ZERO, DVec3::Y, DVec3::Y, 40.0, 4, 4).is_none());
+    }
+}

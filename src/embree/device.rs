@@ -1,0 +1,110 @@
+//! The Embree device and the translation of Embree's errors into Rust errors.
+
+use super::ffi;
+use std::ffi::{c_char, c_void, CStr};
+use std::sync::{Arc, Mutex};
+
+/// An error reported by Embree, or found by this layer before a call reached Embree.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum EmbreeError {
+    /// Embree reported an error through its error callback.
+    #[error("Embree error {code}: {message}")]
+    Embree {
+        /// Embree's `RTCError` code.
+        code: u32,
+        /// Embree's message.
+        message: String,
+    },
+    /// A mesh handed to the scene builder is malformed (Embree would drop it silently).
+    #[error("invalid mesh: {0}")]
+    InvalidMesh(String),
+}
+
+/// The first error Embree reported since it was last taken. Shared with the error callback.
+type ErrorSlot = Mutex<Option<EmbreeError>>;
+
+/// Called by Embree on any thread. It must not unwind into C: it only stores the error.
+extern "C" fn error_callback(user_ptr: *mut c_void, code: ffi::RTCError, message: *const c_char) {
+    let _ = std::panic::catch_unwind(|| {
+        let text = if message.is_null() {
+            String::from("(no message)")
+        } else {
+            // SAFETY: Embree passes a NUL-terminated string that lives for the duration of the call.
+            unsafe { CStr::from_ptr(message) }
+                .to_string_lossy()
+                .into_owned()
+        };
+        // SAFETY: `user_ptr` is the `ErrorSlot` owned by an `Arc` inside the `DeviceHandle`, which
+        // outlives the device (it is released before the Arc is dropped).
+        let slot = unsafe { &*(user_ptr as *const ErrorSlot) };
+        if let Ok(mut guard) = slot.lock() {
+            guard.get_or_insert(EmbreeError::Embree {
+                code: code.0,
+                message: text,
+            });
+        }
+    });
+}
+
+pub(super) struct DeviceHandle {
+    pub(super) raw: ffi::RTCDevice,
+    errors: Arc<ErrorSlot>,
+}
+
+// SAFETY: Embree devices are thread-safe; the error slot is behind a mutex.
+unsafe impl Send for DeviceHandle {}
+// SAFETY: as above.
+unsafe impl Sync for DeviceHandle {}
+
+impl DeviceHandle {
+    /// Returns and clears the first error reported since the last call.
+    pub(super) fn take_error(&self) -> Result<(), EmbreeError> {
+        match self.errors.lock() {
+            Ok(mut guard) => guard.take().map_or(Ok(()), Err),
+            Err(_) => Ok(()),
+        }
+    }
+}
+
+impl Drop for DeviceHandle {
+    fn drop(&mut self) {
+        // SAFETY: `raw` came from rtcNewDevice and is released exactly once; scenes hold an Arc to
+        // this handle, so no scene outlives it.
+        unsafe { ffi::rtcReleaseDevice(self.raw) };
+    }
+}
+
+/// An Embree device. Cheap to clone; scenes keep their device alive.
+#[derive(Clone)]
+pub struct Device {
+    pub(super) handle: Arc<DeviceHandle>,
+}
+
+impl Device {
+    /// Creates a device with Embree's default configuration.
+    pub fn new() -> Result<Self, EmbreeError> {
+        // SAFETY: a null config string asks for the defaults.
+        let raw = unsafe { ffi::rtcNewDevice(std::ptr::null()) };
+        if raw.is_null() {
+            // SAFETY: a null device asks for the error of the last failed device creation.
+            let code = unsafe { ffi::rtcGetDeviceError(std::ptr::null_mut()) };
+            return Err(EmbreeError::Embree {
+                code: code.0,
+                message: "rtcNewDevice failed (is the CPU supported by this Embree build?)".into(),
+            });
+        }
+        let errors: Arc<ErrorSlot> = Arc::new(Mutex::new(None));
+        // SAFETY: `raw` is a valid device; the user pointer is the slot inside `errors`, which the
+        // handle keeps alive until after rtcReleaseDevice.
+        unsafe {
+            ffi::rtcSetDeviceErrorFunction(
+                raw,
+                Some(error_callback),
+                Arc::as_ptr(&errors) as *mut c_void,
+            )
+        };
+        Ok(Device {
+            handle: Arc::new(DeviceHandle { raw, errors }),
+        })
+    }
+}

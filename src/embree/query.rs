@@ -1,0 +1,265 @@
+//! Ray queries: single rays and 16-wide packets. Every call into Embree's traversal lives here
+//! (Embree 4 changes these signatures; a second backend replaces this file).
+
+use super::ffi;
+use super::hit::Hit;
+use super::ray::Ray;
+use super::scene::Scene;
+use super::PACKET_WIDTH;
+
+/// A 64-byte aligned ray-hit packet: Embree segfaults on a misaligned one.
+#[repr(C, align(64))]
+#[derive(Default)]
+struct RayHit16(ffi::RTCRayHit16);
+
+/// A 64-byte aligned occlusion packet.
+#[repr(C, align(64))]
+#[derive(Default)]
+struct Ray16(ffi::RTCRay16);
+
+/// A 64-byte aligned `valid` mask for 16-wide calls (-1 = active lane, 0 = inactive).
+#[repr(C, align(64))]
+#[derive(Default)]
+struct Valid16([i32; PACKET_WIDTH]);
+
+fn single_ray(ray: &Ray) -> ffi::RTCRay {
+    ffi::RTCRay {
+        org_x: ray.origin.x as f32,
+        org_y: ray.origin.y as f32,
+        org_z: ray.origin.z as f32,
+        tnear: ray.tnear as f32,
+        dir_x: ray.direction.x as f32,
+        dir_y: ray.direction.y as f32,
+        dir_z: ray.direction.z as f32,
+        time: 0.0,
+        tfar: ray.tfar_f32(),
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
+    }
+}
+
+fn empty_hit() -> ffi::RTCHit {
+    ffi::RTCHit {
+        geomID: ffi::INVALID_GEOMETRY_ID,
+        primID: ffi::INVALID_GEOMETRY_ID,
+        ..Default::default()
+    }
+}
+
+/// Writes `ray` into lane `lane` of a packet's ray part.
+fn set_lane(packet: &mut ffi::RTCRay16, lane: usize, ray: &Ray) {
+    packet.org_x[lane] = ray.origin.x as f32;
+    packet.org_y[lane] = ray.origin.y as f32;
+    packet.org_z[lane] = ray.origin.z as f32;
+    packet.tnear[lane] = ray.tnear as f32;
+    packet.dir_x[lane] = ray.direction.x as f32;
+    packet.dir_y[lane] = ray.direction.y as f32;
+    packet.dir_z[lane] = ray.direction.z as f32;
+    packet.time[lane] = 0.0;
+    packet.tfar[lane] = ray.tfar_f32();
+    packet.mask[lane] = u32::MAX;
+    packet.id[lane] = lane as u32;
+    packet.flags[lane] = 0;
+}
+
+impl Scene {
+    /// The closest hit along `ray`, or `None` for a miss or an invalid ray.
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !ray.is_valid() {
+            self.count_invalid();
+            return None;
+        }
+        let mut context = ffi::intersect_context(false);
+        let mut rayhit = ffi::RTCRayHit {
+            ray: single_ray(ray),
+            hit: empty_hit(),
+        };
+        // SAFETY: the scene is committed, the ray was validated, and both structs are properly
+        // aligned locals that outlive the call.
+        unsafe { ffi::rtcIntersect1(self.raw, &mut context, &mut rayhit) };
+        let hit = &rayhit.hit;
+        (hit.geomID != ffi::INVALID_GEOMETRY_ID)
+            .then(|| self.make_hit(hit.geomID, hit.primID, hit.u, hit.v, rayhit.ray.tfar))
+    }
+
+    /// Whether anything blocks `ray` within `[tnear, tfar]`. An invalid ray counts as a miss
+    /// (unblocked) and is counted in [`Scene::invalid_rays`].
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        if !ray.is_valid() {
+            self.count_invalid();
+            return false;
+        }
+        let mut context = ffi::intersect_context(false);
+        let mut raw = single_ray(ray);
+        // SAFETY: as in `intersect`.
+        unsafe { ffi::rtcOccluded1(self.raw, &mut context, &mut raw) };
+        // Embree sets tfar to -inf when the ray is occluded.
+        raw.tfar < 0.0
+    }
+
+    /// Closest hits for up to 16 rays traced as one packet. `coherent` tells Embree the rays are
+    /// coherent (camera rays of neighbouring pixels, shadow rays to one light).
+    /// `hits[i]` answers `rays[i]`; invalid rays are answered `None` and counted.
+    pub fn intersect16(&self, rays: &[Ray], coherent: bool, hits: &mut [Option<Hit>]) {
+        assert!(rays.len() <= PACKET_WIDTH && hits.len() >= rays.len());
+        let mut packet = Box::<RayHit16>::default();
+        let mut valid = Valid16::default();
+        for (lane, ray) in rays.iter().enumerate() {
+            if ray.is_valid() {
+                set_lane(&mut packet.0.ray, lane, ray);
+                valid.0[lane] = -1;
+            } else {
+                self.count_invalid();
+            }
+            packet.0.hit.geomID[lane] = ffi::INVALID_GEOMETRY_ID;
+        }
+        let mut context = ffi::intersect_context(coherent);
+        // SAFETY: packet and mask are 64-byte aligned; only lanes holding validated rays are active.
+        unsafe { ffi::rtcIntersect16(valid.0.as_ptr(), self.raw, &mut context, &mut packet.0) };
+        let (r, h) = (&packet.0.ray, &packet.0.hit);
+        for (lane, hit) in hits.iter_mut().enumerate().take(rays.len()) {
+            *hit = (valid.0[lane] != 0 && h.geomID[lane] != ffi::INVALID_GEOMETRY_ID).then(|| {
+                self.make_hit(
+                    h.geomID[lane],
+                    h.primID[lane],
+                    h.u[lane],
+                    h.v[lane],
+                    r.tfar[lane],
+                )
+            });
+        }
+    }
+
+    /// Occlusion for up to 16 rays traced as one packet; `blocked[i]` answers `rays[i]`.
+    /// Invalid rays are answered `false` (a miss) and counted.
+    pub fn occluded16(&self, rays: &[Ray], coherent: bool, blocked: &mut [bool]) {
+        assert!(rays.len() <= PACKET_WIDTH && blocked.len() >= rays.len());
+        let mut packet = Ray16::default();
+        let mut valid = Valid16::default();
+        for (lane, ray) in rays.iter().enumerate() {
+            if ray.is_valid() {
+                set_lane(&mut packet.0, lane, ray);
+                valid.0[lane] = -1;
+            } else {
+                self.count_invalid();
+            }
+        }
+        let mut context = ffi::intersect_context(coherent);
+        // SAFETY: packet and mask are 64-byte aligned; only lanes holding validated rays are active.
+        unsafe { ffi::rtcOccluded16(valid.0.as_ptr(), self.raw, &mut context, &mut packet.0) };
+        for (lane, b) in blocked.iter_mut().enumerate().take(rays.len()) {
+            *b = valid.0[lane] != 0 && packet.0.tfar[lane] < 0.0;
+        }
+    }
+
+    /// Embree's raw single-ray throughput on `rays`, for benchmarks: `rtcIntersect1` with no
+    /// validation and no hit post-processing. Returns the number of hits.
+    pub fn raw_intersect1(&self, rays: &RawRays) -> usize {
+        let mut context = ffi::intersect_context(false);
+        let mut hits = 0;
+        for ray in &rays.single {
+            let mut rayhit = ffi::RTCRayHit {
+                ray: *ray,
+                hit: empty_hit(),
+            };
+            // SAFETY: `RawRays` holds only validated rays; the scene is committed.
+            unsafe { ffi::rtcIntersect1(self.raw, &mut context, &mut rayhit) };
+            hits += usize::from(rayhit.hit.geomID != ffi::INVALID_GEOMETRY_ID);
+        }
+        hits
+    }
+
+    /// Embree's raw 16-wide throughput on `rays` (consecutive groups of 16 as packets).
+    pub fn raw_intersect16(&self, rays: &RawRays, coherent: bool) -> usize {
+        let mut context = ffi::intersect_context(coherent);
+        let mut packet = Box::<RayHit16>::default();
+        let mut hits = 0;
+        for (chunk, valid) in rays.packets.iter().zip(&rays.valid) {
+            packet.0.ray = chunk.0;
+            packet.0.hit.geomID = [ffi::INVALID_GEOMETRY_ID; PACKET_WIDTH];
+            // SAFETY: aligned packet and mask; active lanes hold validated rays.
+            unsafe { ffi::rtcIntersect16(valid.0.as_ptr(), self.raw, &mut context, &mut packet.0) };
+            hits += packet
+                .0
+                .hit
+                .geomID
+                .iter()
+                .filter(|&&g| g != ffi::INVALID_GEOMETRY_ID)
+                .count();
+        }
+        hits
+    }
+
+    /// Embree's raw single-ray occlusion throughput on `rays`. Returns the number blocked.
+    pub fn raw_occluded1(&self, rays: &RawRays) -> usize {
+        let mut context = ffi::intersect_context(false);
+        let mut blocked = 0;
+        for ray in &rays.single {
+            let mut raw = *ray;
+            // SAFETY: as in `raw_intersect1`.
+            unsafe { ffi::rtcOccluded1(self.raw, &mut context, &mut raw) };
+            blocked += usize::from(raw.tfar < 0.0);
+        }
+        blocked
+    }
+
+    /// Embree's raw 16-wide occlusion throughput on `rays`. Returns the number blocked.
+    pub fn raw_occluded16(&self, rays: &RawRays, coherent: bool) -> usize {
+        let mut context = ffi::intersect_context(coherent);
+        let mut packet = Ray16::default();
+        let mut blocked = 0;
+        for (chunk, valid) in rays.packets.iter().zip(&rays.valid) {
+            packet.0 = chunk.0;
+            // SAFETY: aligned packet and mask; active lanes hold validated rays.
+            unsafe { ffi::rtcOccluded16(valid.0.as_ptr(), self.raw, &mut context, &mut packet.0) };
+            blocked += (0..PACKET_WIDTH)
+                .filter(|&lane| valid.0[lane] != 0 && packet.0.tfar[lane] < 0.0)
+                .count();
+        }
+        blocked
+    }
+}
+
+/// Rays converted once into Embree's layouts, to measure Embree's raw throughput in benchmarks.
+/// Invalid rays are dropped.
+pub struct RawRays {
+    single: Vec<ffi::RTCRay>,
+    packets: Vec<Ray16>,
+    valid: Vec<Valid16>,
+}
+
+impl RawRays {
+    /// Converts the valid ones of `rays`.
+    pub fn new(rays: &[Ray]) -> Self {
+        let rays: Vec<&Ray> = rays.iter().filter(|r| r.is_valid()).collect();
+        let single = rays.iter().map(|r| single_ray(r)).collect();
+        let mut packets = Vec::new();
+        let mut valid = Vec::new();
+        for chunk in rays.chunks(PACKET_WIDTH) {
+            let mut packet = Ray16::default();
+            let mut mask = Valid16::default();
+            for (lane, ray) in chunk.iter().enumerate() {
+                set_lane(&mut packet.0, lane, ray);
+                mask.0[lane] = -1;
+            }
+            packets.push(packet);
+            valid.push(mask);
+        }
+        RawRays {
+            single,
+            packets,
+            valid,
+        }
+    }
+
+    /// Number of rays.
+    pub fn len(&self) -> usize {
+        self.single.len()
+    }
+
+    /// Whether there are no rays.
+    pub fn is_empty(&self) -> bool {
+        self.single.is_empty()
+    }
+}

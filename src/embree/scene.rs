@@ -1,0 +1,272 @@
+//! Triangle meshes, the scene builder, and the committed, immutable, shareable scene.
+
+use super::device::{Device, DeviceHandle, EmbreeError};
+use super::ffi;
+use super::hit::Hit;
+use glam::DVec3;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+/// A triangle mesh as Embree takes it: vertex positions, optional per-vertex normals (for
+/// interpolated shading normals) and triangles as vertex index triples.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct TriangleMesh {
+    /// Vertex positions.
+    pub positions: Vec<[f32; 3]>,
+    /// Per-vertex normals (same length as `positions`), or `None` for flat shading.
+    pub normals: Option<Vec<[f32; 3]>>,
+    /// Triangles, counter-clockwise seen from the side the geometric normal points to.
+    pub triangles: Vec<[u32; 3]>,
+}
+
+impl TriangleMesh {
+    /// Checks what Embree would otherwise silently drop or mis-handle: non-finite or huge
+    /// vertices, out-of-range indices, zero-area triangles, mismatched or zero normals.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = |p: &[f32; 3]| p.iter().all(|c| c.is_finite() && c.abs() < 1.0e18);
+        if let Some(i) = self.positions.iter().position(|p| !finite(p)) {
+            return Err(format!("vertex {i} is not finite: {:?}", self.positions[i]));
+        }
+        if self.positions.len() >= u32::MAX as usize {
+            return Err("too many vertices".into());
+        }
+        if let Some(normals) = &self.normals {
+            if normals.len() != self.positions.len() {
+                return Err(format!(
+                    "{} normals for {} vertices",
+                    normals.len(),
+                    self.positions.len()
+                ));
+            }
+            if let Some(i) = normals
+                .iter()
+                .position(|n| !finite(n) || n.iter().all(|c| *c == 0.0))
+            {
+                return Err(format!(
+                    "normal {i} is zero or not finite: {:?}",
+                    normals[i]
+                ));
+            }
+        }
+        let n = self.positions.len() as u32;
+        for (i, tri) in self.triangles.iter().enumerate() {
+            if let Some(bad) = tri.iter().find(|&&index| index >= n) {
+                return Err(format!(
+                    "triangle {i} uses vertex {bad}, but the mesh has {n} vertices"
+                ));
+            }
+            let [a, b, c] = tri.map(|k| DVec3::from(self.positions[k as usize].map(f64::from)));
+            let area2 = (b - a).cross(c - a).length();
+            let scale = (b - a).length().max((c - a).length()).max(1e-30);
+            if area2.is_nan() || area2 <= 1e-12 * scale * scale {
+                return Err(format!("triangle {i} is degenerate (zero area): {tri:?}"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A mesh as the committed scene keeps it: Embree reads the vertex and index buffers in place.
+struct MeshBuffers {
+    /// `x y z` per vertex plus one padding float: Embree reads 16 bytes for the last vertex.
+    vertices: Vec<f32>,
+    normals: Option<Vec<[f32; 3]>>,
+    indices: Vec<u32>,
+}
+
+impl MeshBuffers {
+    fn vertex(&self, index: u32) -> DVec3 {
+        let k = 3 * index as usize;
+        DVec3::new(
+            self.vertices[k] as f64,
+            self.vertices[k + 1] as f64,
+            self.vertices[k + 2] as f64,
+        )
+    }
+
+    fn triangle(&self, prim: u32) -> [u32; 3] {
+        let k = 3 * prim as usize;
+        [self.indices[k], self.indices[k + 1], self.indices[k + 2]]
+    }
+}
+
+/// Collects meshes; [`SceneBuilder::commit`] turns them into an immutable [`Scene`].
+pub struct SceneBuilder {
+    device: Device,
+    meshes: Vec<MeshBuffers>,
+}
+
+impl SceneBuilder {
+    /// An empty scene on `device`.
+    pub fn new(device: &Device) -> Self {
+        SceneBuilder {
+            device: device.clone(),
+            meshes: Vec::new(),
+        }
+    }
+
+    /// Adds a mesh and returns its geometry id (0, 1, 2, ... in the order of the calls).
+    pub fn add_mesh(&mut self, mesh: &TriangleMesh) -> Result<u32, EmbreeError> {
+        mesh.validate().map_err(EmbreeError::InvalidMesh)?;
+        let mut vertices: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
+        vertices.push(0.0);
+        let indices = mesh.triangles.iter().flatten().copied().collect();
+        self.meshes.push(MeshBuffers {
+            vertices,
+            normals: mesh.normals.clone(),
+            indices,
+        });
+        Ok(self.meshes.len() as u32 - 1)
+    }
+
+    /// Builds Embree's acceleration structure over the meshes added so far.
+    pub fn commit(self) -> Result<Scene, EmbreeError> {
+        let device = self.device.handle.clone();
+        device.take_error()?;
+        // SAFETY: the device is valid for the lifetime of `device`, which the scene keeps.
+        let raw = unsafe { ffi::rtcNewScene(device.raw) };
+        // From here on the scene owns `raw` and releases it on drop, whatever fails below.
+        let scene = Scene {
+            raw,
+            _device: device.clone(),
+            meshes: self.meshes,
+            invalid_rays: AtomicU64::new(0),
+        };
+        if raw.is_null() {
+            return Err(device.take_error().err().unwrap_or(EmbreeError::Embree {
+                code: 0,
+                message: "rtcNewScene failed".into(),
+            }));
+        }
+        // SAFETY: `raw` is a valid scene.
+        unsafe {
+            ffi::rtcSetSceneBuildQuality(raw, ffi::RTCBuildQuality::RTC_BUILD_QUALITY_HIGH);
+        }
+        for (id, mesh) in scene.meshes.iter().enumerate() {
+            let vertex_count = (mesh.vertices.len() - 1) / 3;
+            let triangle_count = mesh.indices.len() / 3;
+            // SAFETY: the buffers live in `scene.meshes`, which the scene keeps (their heap storage
+            // never moves) until after rtcReleaseScene; the vertex buffer has the 4 bytes of padding
+            // Embree reads past the last vertex; the indices were validated against the vertex count.
+            unsafe {
+                let geometry = ffi::rtcNewGeometry(
+                    device.raw,
+                    ffi::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE,
+                );
+                if geometry.is_null() {
+                    break;
+                }
+                ffi::rtcSetSharedGeometryBuffer(
+                    geometry,
+                    ffi::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
+                    0,
+                    ffi::RTCFormat::RTC_FORMAT_FLOAT3,
+                    mesh.vertices.as_ptr() as *const std::ffi::c_void,
+                    0,
+                    12,
+                    vertex_count,
+                );
+                ffi::rtcSetSharedGeometryBuffer(
+                    geometry,
+                    ffi::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
+                    0,
+                    ffi::RTCFormat::RTC_FORMAT_UINT3,
+                    mesh.indices.as_ptr() as *const std::ffi::c_void,
+                    0,
+                    12,
+                    triangle_count,
+                );
+                ffi::rtcCommitGeometry(geometry);
+                ffi::rtcAttachGeometryByID(raw, geometry, id as u32);
+                ffi::rtcReleaseGeometry(geometry);
+            }
+        }
+        // SAFETY: `raw` is a valid scene whose geometries are all committed.
+        unsafe { ffi::rtcCommitScene(raw) };
+        device.take_error()?;
+        Ok(scene)
+    }
+}
+
+/// A committed Embree scene: immutable, and safe to query from many threads at once.
+pub struct Scene {
+    pub(super) raw: ffi::RTCScene,
+    _device: Arc<DeviceHandle>,
+    meshes: Vec<MeshBuffers>,
+    pub(super) invalid_rays: AtomicU64,
+}
+
+// SAFETY: a committed Embree scene is immutable and Embree documents rtcIntersect*/rtcOccluded* as
+// thread-safe on it; the mesh buffers are never written after commit.
+unsafe impl Send for Scene {}
+// SAFETY: as above.
+unsafe impl Sync for Scene {}
+
+impl Drop for Scene {
+    fn drop(&mut self) {
+        if !self.raw.is_null() {
+            // SAFETY: `raw` came from rtcNewScene and is released once, before the buffers it reads
+            // (fields drop after this) and before the device (held by `_device`).
+            unsafe { ffi::rtcReleaseScene(self.raw) };
+        }
+    }
+}
+
+impl Scene {
+    /// Number of meshes.
+    pub fn mesh_count(&self) -> usize {
+        self.meshes.len()
+    }
+
+    /// Number of rays rejected so far because Embree could not take them (answered as misses).
+    pub fn invalid_rays(&self) -> u64 {
+        self.invalid_rays.load(Ordering::Relaxed)
+    }
+
+    pub(super) fn count_invalid(&self) {
+        self.invalid_rays.fetch_add(1, Ordering::Relaxed);
+    }
+
+    /// Completes a hit from Embree's ids, barycentrics and distance with this layer's mesh data.
+    pub(super) fn make_hit(&self, geom_id: u32, prim_id: u32, u: f32, v: f32, t: f32) -> Hit {
+        let mesh = &self.meshes[geom_id as usize];
+        let tri = mesh.triangle(prim_id);
+        let p0 = mesh.vertex(tri[0]);
+        let dp_du = mesh.vertex(tri[1]) - p0;
+        let dp_dv = mesh.vertex(tri[2]) - p0;
+        let (u, v) = (u as f64, v as f64);
+        let geometric_normal = dp_du.cross(dp_dv).normalize();
+        let (shading_normal, dn_du, dn_dv) = match &mesh.normals {
+            None => (geometric_normal, DVec3::ZERO, DVec3::ZERO),
+            Some(normals) => {
+                let [n0, n1, n2] = tri.map(|k| DVec3::from(normals[k as usize].map(f64::from)));
+                let unnormalised = n0 * (1.0 - u - v) + n1 * u + n2 * v;
+                let length = unnormalised.length();
+                let n = unnormalised / length;
+                // d(N/|N|) = (dN - (dN . n) n) / |N|
+                let project = |dn: DVec3| (dn - n * dn.dot(n)) / length;
+                let n = if n.dot(geometric_normal) < 0.0 { -n } else { n };
+                let sign = if unnormalised.dot(geometric_normal) < 0.0 {
+                    -1.0
+                } else {
+                    1.0
+                };
+                (n, sign * project(n1 - n0), sign * project(n2 - n0))
+            }
+        };
+        Hit {
+            t: t as f64,
+            geom_id,
+            prim_id,
+            u,
+            v,
+            position: p0 + dp_du * u + dp_dv * v,
+            geometric_normal,
+            shading_normal,
+            dn_du,
+            dn_dv,
+            dp_du,
+            dp_dv,
+        }
+    }
+}

@@ -1,0 +1,116 @@
+//! The film: linear RGB radiance per pixel, written as a float EXR and an sRGB PNG preview.
+
+use glam::DVec3;
+use std::path::Path;
+
+/// An image of linear RGB radiance; pixel `(0, 0)` is the top-left.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Film {
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Row-major pixels.
+    pub pixels: Vec<DVec3>,
+}
+
+impl Film {
+    /// A black film.
+    pub fn new(width: u32, height: u32) -> Self {
+        Film {
+            width,
+            height,
+            pixels: vec![DVec3::ZERO; width as usize * height as usize],
+        }
+    }
+
+    /// The pixel at column `x`, row `y`.
+    pub fn pixel(&self, x: u32, y: u32) -> DVec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    /// Writes a linear float (32-bit) RGB EXR with `metadata` as string attributes.
+    pub fn write_exr(&self, path: &Path, metadata: &[(String, String)]) -> Result<(), String> {
+        use exr::prelude::*;
+        let width = self.width as usize;
+        let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+            let p = self.pixels[pos.y() * width + pos.x()];
+            (p.x as f32, p.y as f32, p.z as f32)
+        });
+        let layer = Layer::new(
+            (self.width as usize, self.height as usize),
+            LayerAttributes::named("photondiff"),
+            Encoding::FAST_LOSSLESS,
+            channels,
+        );
+        let mut image = Image::from_layer(layer);
+        for (key, value) in metadata {
+            if let (Some(k), Some(v)) = (Text::new_or_none(key), Text::new_or_none(value)) {
+                image.attributes.other.insert(k, AttributeValue::Text(v));
+            }
+        }
+        image
+            .write()
+            .to_file(path)
+            .map_err(|e| format!("{}: cannot write EXR: {e}", path.display()))
+    }
+
+    /// Writes an 8-bit sRGB PNG preview (radiance clamped to [0, 1], no tone mapping beyond that).
+    pub fn write_png(&self, path: &Path) -> Result<(), String> {
+        let bytes: Vec<u8> = self
+            .pixels
+            .iter()
+            .flat_map(|p| p.to_array())
+            .map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8)
+            .collect();
+        image::save_buffer(
+            path,
+            &bytes,
+            self.width,
+            self.height,
+            image::ExtendedColorType::Rgb8,
+        )
+        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
+    }
+}
+
+/// The sRGB transfer function, clamping to [0, 1] (NaN maps to 0).
+pub fn linear_to_srgb(c: f64) -> f64 {
+    let c = if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) };
+    if c <= 0.0031308 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exr_round_trips_pixels() {
+        let mut film = Film::new(3, 2);
+        film.pixels[4] = DVec3::new(0.25, 1.5, 7.0);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("a.exr");
+        film.write_exr(&path, &[("k".into(), "v".into())]).unwrap();
+        let image = exr::prelude::read_first_rgba_layer_from_file(
+            &path,
+            |size, _| vec![[0f32; 3]; size.width() * size.height()],
+            |px: &mut Vec<[f32; 3]>, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                px[pos.y() * 3 + pos.x()] = [r, g, b]
+            },
+        )
+        .unwrap();
+        assert_eq!(image.layer_data.channel_data.pixels[4], [0.25, 1.5, 7.0]);
+        assert_eq!(image.layer_data.channel_data.pixels[0], [0.0; 3]);
+    }
+
+    #[test]
+    fn srgb_endpoints() {
+        assert_eq!(linear_to_srgb(0.0), 0.0);
+        assert!((linear_to_srgb(1.0) - 1.0).abs() < 1e-12);
+        assert_eq!(linear_to_srgb(f64::NAN), 0.0);
+    }
+}

@@ -1,0 +1,22 @@
+//! photondiff: photon mapping with photon differentials; every ray query goes through Intel
+//! Embree over FFI.
+//!
+//! Flow, one module per concern: scene file ([`scene_file`], [`mesh_io`], [`shapes`]) -> scene
+//! ([`scene`], [`camera`]) -> Embree scene ([`embree`]) -> camera paths with ray differentials
+//! ([`differential`], [`view_path`]) -> radiance ([`direct`]) -> film ([`film`]) and statistics
+//! ([`stats`]), driven by [`render`].
+
+pub mod camera;
+pub mod differential;
+pub mod direct;
+pub mod embree;
+pub mod film;
+pub mod mesh_io;
+pub mod progress;
+pub mod render;
+pub mod rng;
+pub mod scene;
+pub mod scene_file;
+pub mod shapes;
+pub mod stats;
+pub mod view_path;

@@ -1,0 +1,271 @@
+//! The rendering loop: camera rays (with differentials) in 16-wide packets over tiles in
+//! parallel, camera paths through specular surfaces, and radiance at the diffuse hits.
+//!
+//! Each pixel's value depends only on the scene, the options and the pixel (its random stream is
+//! seeded by the run's seed and the pixel index), so an image is bit-identical whatever the
+//! number of threads.
+
+use crate::direct::DirectLight;
+use crate::embree::{self, Hit, Ray, PACKET_WIDTH};
+use crate::film::Film;
+use crate::rng::Rng;
+use crate::scene::Scene;
+use crate::stats::{RayCounts, Stats};
+use crate::view_path::{DiffuseVertex, PathTally, ViewPaths};
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Side of the square tiles rendered as units of parallel work.
+pub const TILE_SIZE: u32 = 16;
+
+/// Settings of a render. `RenderOptions::default()` gives the documented defaults; the `with_*`
+/// methods change one setting each.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderOptions {
+    /// Camera rays per pixel along each axis (N x N on a regular grid, box-filtered). Default 1.
+    pub view_grid: u32,
+    /// Maximum number of specular bounces of a camera path. Default 10.
+    pub max_depth: u32,
+    /// Area-light samples per diffuse hit, per light, along each axis (stratified). Default 4.
+    pub area_strata: u32,
+    /// Seed of all random streams. Default 0.
+    pub seed: u64,
+    /// Worker threads; 0 uses every core. Default 0.
+    pub threads: usize,
+    /// Whether to show a progress bar on standard error. Default false.
+    pub progress: bool,
+}
+
+impl Default for RenderOptions {
+    fn default() -> Self {
+        RenderOptions {
+            view_grid: 1,
+            max_depth: 10,
+            area_strata: 4,
+            seed: 0,
+            threads: 0,
+            progress: false,
+        }
+    }
+}
+
+impl RenderOptions {
+    /// Sets [`RenderOptions::view_grid`].
+    pub fn with_view_grid(mut self, n: u32) -> Self {
+        self.view_grid = n;
+        self
+    }
+    /// Sets [`RenderOptions::max_depth`].
+    pub fn with_max_depth(mut self, depth: u32) -> Self {
+        self.max_depth = depth;
+        self
+    }
+    /// Sets [`RenderOptions::area_strata`].
+    pub fn with_area_strata(mut self, strata: u32) -> Self {
+        self.area_strata = strata;
+        self
+    }
+    /// Sets [`RenderOptions::seed`].
+    pub fn with_seed(mut self, seed: u64) -> Self {
+        self.seed = seed;
+        self
+    }
+    /// Sets [`RenderOptions::threads`].
+    pub fn with_threads(mut self, threads: usize) -> Self {
+        self.threads = threads;
+        self
+    }
+    /// Sets [`RenderOptions::progress`].
+    pub fn with_progress(mut self, progress: bool) -> Self {
+        self.progress = progress;
+        self
+    }
+}
+
+/// What one tile produced.
+struct TileResult {
+    pixels: Vec<DVec3>,
+    rays: RayCounts,
+    cut_at_max_depth: u64,
+}
+
+/// A rectangle of pixels `[x0, x1) x [y0, y1)`.
+#[derive(Debug, Clone, Copy)]
+struct Tile {
+    x0: u32,
+    y0: u32,
+    x1: u32,
+    y1: u32,
+}
+
+/// Renders `scene` (already built into `embree`) and records the "render" stage in `stats`.
+pub fn render(
+    scene: &Scene,
+    embree: &embree::Scene,
+    options: &RenderOptions,
+    stats: &mut Stats,
+) -> Result<Film, String> {
+    if !(1..=64).contains(&options.view_grid) {
+        return Err(format!(
+            "view grid must be in 1..=64, got {}",
+            options.view_grid
+        ));
+    }
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let tiles: Vec<Tile> = (0..height.div_ceil(TILE_SIZE))
+        .flat_map(|ty| {
+            (0..width.div_ceil(TILE_SIZE)).map(move |tx| Tile {
+                x0: tx * TILE_SIZE,
+                y0: ty * TILE_SIZE,
+                x1: ((tx + 1) * TILE_SIZE).min(width),
+                y1: ((ty + 1) * TILE_SIZE).min(height),
+            })
+        })
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.threads)
+        .build()
+        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    stats.threads = pool.current_num_threads();
+    let progress = crate::progress::bar(options.progress, tiles.len() as u64, "render");
+    let invalid_before = embree.invalid_rays();
+    let renderer = TileRenderer::new(scene, embree, options);
+    let results: Vec<TileResult> = stats.time("render", || {
+        pool.install(|| {
+            tiles
+                .par_iter()
+                .map(|tile| {
+                    let r = renderer.render_tile(*tile);
+                    progress.inc(1);
+                    r
+                })
+                .collect()
+        })
+    });
+    progress.finish_and_clear();
+    let mut film = Film::new(width, height);
+    for (tile, result) in tiles.iter().zip(&results) {
+        let tw = (tile.x1 - tile.x0) as usize;
+        for (k, p) in result.pixels.iter().enumerate() {
+            let (x, y) = (tile.x0 + (k % tw) as u32, tile.y0 + (k / tw) as u32);
+            film.pixels[(y * width + x) as usize] = *p;
+        }
+        stats.rays.add(&result.rays);
+        stats.paths_cut_at_max_depth += result.cut_at_max_depth;
+    }
+    stats.invalid_rays += embree.invalid_rays() - invalid_before;
+    Ok(film)
+}
+
+/// Renders tiles; shared read-only by all workers.
+struct TileRenderer<'a> {
+    scene: &'a Scene,
+    embree: &'a embree::Scene,
+    options: &'a RenderOptions,
+    paths: ViewPaths<'a>,
+    direct: DirectLight<'a>,
+}
+
+impl<'a> TileRenderer<'a> {
+    fn new(scene: &'a Scene, embree: &'a embree::Scene, options: &'a RenderOptions) -> Self {
+        // Far above Embree's single-precision error at the scene's scale, far below any feature.
+        let epsilon = 2e-5 * scene.extent();
+        TileRenderer {
+            scene,
+            embree,
+            options,
+            paths: ViewPaths {
+                scene,
+                embree,
+                max_depth: options.max_depth,
+                epsilon,
+            },
+            direct: DirectLight {
+                scene,
+                embree,
+                area_strata: options.area_strata,
+                epsilon,
+            },
+        }
+    }
+
+    /// Camera samples of a tile in 4 x 4 pixel blocks, so that each packet of 16 rays is
+    /// coherent: `(pixel index in tile, x, y)` in continuous pixel coordinates.
+    fn samples(&self, tile: Tile) -> Vec<(usize, f64, f64)> {
+        let n = self.options.view_grid;
+        let tw = tile.x1 - tile.x0;
+        let mut samples = Vec::new();
+        for by in (tile.y0..tile.y1).step_by(4) {
+            for bx in (tile.x0..tile.x1).step_by(4) {
+                for y in by..(by + 4).min(tile.y1) {
+                    for x in bx..(bx + 4).min(tile.x1) {
+                        let pixel = ((y - tile.y0) * tw + (x - tile.x0)) as usize;
+                        for j in 0..n {
+                            for i in 0..n {
+                                samples.push((
+                                    pixel,
+                                    x as f64 + (i as f64 + 0.5) / n as f64,
+                                    y as f64 + (j as f64 + 0.5) / n as f64,
+                                ));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        samples
+    }
+
+    fn render_tile(&self, tile: Tile) -> TileResult {
+        let camera = &self.scene.camera;
+        let n = self.options.view_grid;
+        let share = 1.0 / (n * n) as f64;
+        let tw = (tile.x1 - tile.x0) as usize;
+        let mut pixels = vec![DVec3::ZERO; tw * (tile.y1 - tile.y0) as usize];
+        let samples = self.samples(tile);
+        let mut tally = PathTally::default();
+        let mut vertices: Vec<DiffuseVertex> = Vec::new();
+        let mut radiance = [DVec3::ZERO; PACKET_WIDTH];
+        let mut hits: [Option<Hit>; PACKET_WIDTH] = [None; PACKET_WIDTH];
+        let mut rays = [Ray::new(DVec3::ZERO, DVec3::X); PACKET_WIDTH];
+        // One random stream per tile, seeded by the run's seed and the tile's first pixel:
+        // independent of which thread renders the tile.
+        let first_pixel = tile.y0 as u64 * camera.width as u64 + tile.x0 as u64;
+        let mut rng = Rng::new(self.options.seed, first_pixel);
+        for chunk in samples.chunks(PACKET_WIDTH) {
+            let differentials: Vec<_> = chunk
+                .iter()
+                .map(|&(_, x, y)| camera.ray(x, y, 1.0 / n as f64))
+                .collect();
+            for (ray, diff) in rays.iter_mut().zip(&differentials) {
+                *ray = Ray::new(diff.p, diff.d);
+            }
+            self.embree
+                .intersect16(&rays[..chunk.len()], true, &mut hits);
+            tally.rays.camera += chunk.len() as u64;
+            vertices.clear();
+            radiance.fill(DVec3::ZERO);
+            for (lane, diff) in differentials.iter().enumerate() {
+                self.paths.follow(
+                    diff,
+                    hits[lane],
+                    DVec3::splat(share),
+                    0,
+                    lane,
+                    &mut vertices,
+                    &mut radiance[lane],
+                    &mut tally,
+                );
+            }
+            tally.rays.shadow += self.direct.add(&vertices, &mut rng, &mut radiance);
+            for (lane, &(pixel, _, _)) in chunk.iter().enumerate() {
+                pixels[pixel] += radiance[lane];
+            }
+        }
+        TileResult {
+            pixels,
+            rays: tally.rays,
+            cut_at_max_depth: tally.cut_at_max_depth,
+        }
+    }
+}

@@ -1,0 +1,161 @@
+//! The scene as the renderer sees it: meshes with materials, lights, and one pinhole camera.
+//! Read from a file by [`crate::scene_file`]; turned into an Embree scene by [`Scene::build_embree`].
+
+use crate::camera::Camera;
+use crate::embree::{self, Device, EmbreeError, TriangleMesh};
+use glam::DVec3;
+
+/// A surface's scattering.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Material {
+    /// Lambertian reflection with the given albedo (RGB, each in `[0, 1]`). Two-sided.
+    Diffuse {
+        /// Albedo per channel.
+        albedo: DVec3,
+    },
+    /// Perfect specular reflection scaled by `reflectance` (RGB).
+    Mirror {
+        /// Reflectance per channel.
+        reflectance: DVec3,
+    },
+    /// A smooth dielectric of index `ior` inside (the side the geometric normal points away
+    /// from) and 1 outside; reflection and refraction weighted by Fresnel.
+    Glass {
+        /// Index of refraction inside.
+        ior: f64,
+    },
+    /// The emitting face of a quad area light: radiance `radiance` on the front (the side of
+    /// `edge_u x edge_v`), black behind. Not declared in scene files: made for each quad light.
+    Emitter {
+        /// Emitted radiance.
+        radiance: DVec3,
+    },
+}
+
+impl Material {
+    /// Whether the camera path continues through this surface (mirror, glass).
+    pub fn is_specular(&self) -> bool {
+        matches!(self, Material::Mirror { .. } | Material::Glass { .. })
+    }
+}
+
+/// A light source.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Light {
+    /// An isotropic point light of radiant intensity `intensity` (W/sr, RGB).
+    Point {
+        /// Position.
+        position: DVec3,
+        /// Radiant intensity.
+        intensity: DVec3,
+    },
+    /// A spot light: intensity `intensity` along `direction`, full up to `cos_falloff_start`,
+    /// smoothly falling to zero at `cos_cone` (cosines of the angles from the axis).
+    Spot {
+        /// Position.
+        position: DVec3,
+        /// Unit axis.
+        direction: DVec3,
+        /// Radiant intensity on the axis.
+        intensity: DVec3,
+        /// Cosine of the outer cone angle (zero beyond).
+        cos_cone: f64,
+        /// Cosine of the angle where the falloff starts.
+        cos_falloff_start: f64,
+    },
+    /// A one-sided parallelogram area light `corner + s edge_u + t edge_v`, `s, t` in `[0, 1]`,
+    /// emitting `radiance` towards `edge_u x edge_v`.
+    Quad {
+        /// One corner.
+        corner: DVec3,
+        /// First edge.
+        edge_u: DVec3,
+        /// Second edge.
+        edge_v: DVec3,
+        /// Emitted radiance (W/(m^2 sr), RGB).
+        radiance: DVec3,
+    },
+}
+
+impl Light {
+    /// Intensity of a point or spot light towards the unit direction `w` (away from the light).
+    pub fn intensity_towards(&self, w: DVec3) -> DVec3 {
+        match *self {
+            Light::Point { intensity, .. } => intensity,
+            Light::Spot {
+                direction,
+                intensity,
+                cos_cone,
+                cos_falloff_start,
+                ..
+            } => {
+                let c = w.dot(direction);
+                if c <= cos_cone {
+                    DVec3::ZERO
+                } else if c >= cos_falloff_start {
+                    intensity
+                } else {
+                    // Smoothstep between the outer cone and the start of the falloff.
+                    let s = (c - cos_cone) / (cos_falloff_start - cos_cone);
+                    intensity * (s * s * (3.0 - 2.0 * s))
+                }
+            }
+            Light::Quad { .. } => DVec3::ZERO,
+        }
+    }
+}
+
+/// A mesh of the scene and the material of all its triangles.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneMesh {
+    /// What the mesh came from, for messages ("shapes[2] (sphere)").
+    pub name: String,
+    /// The triangles.
+    pub mesh: TriangleMesh,
+    /// Its material.
+    pub material: Material,
+}
+
+/// A complete scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    /// The camera.
+    pub camera: Camera,
+    /// The lights.
+    pub lights: Vec<Light>,
+    /// The meshes; mesh `i` becomes Embree geometry `i`.
+    pub meshes: Vec<SceneMesh>,
+}
+
+impl Scene {
+    /// Builds the Embree scene: every mesh in order, so geometry id `i` is `self.meshes[i]`.
+    pub fn build_embree(&self, device: &Device) -> Result<embree::Scene, EmbreeError> {
+        let mut builder = embree::SceneBuilder::new(device);
+        for mesh in &self.meshes {
+            builder
+                .add_mesh(&mesh.mesh)
+                .map_err(|e| EmbreeError::InvalidMesh(format!("{}: {e}", mesh.name)))?;
+        }
+        builder.commit()
+    }
+
+    /// The material of Embree geometry `geom_id`.
+    pub fn material(&self, geom_id: u32) -> &Material {
+        &self.meshes[geom_id as usize].material
+    }
+
+    /// The diagonal of the scene's bounding box (at least 1e-3), to scale ray offsets.
+    pub fn extent(&self) -> f64 {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for p in self.meshes.iter().flat_map(|m| m.mesh.positions.iter()) {
+            let p = DVec3::from(p.map(f64::from));
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+        if lo.x > hi.x {
+            return 1.0;
+        }
+        (hi - lo).length().max(1e-3)
+    }
+}

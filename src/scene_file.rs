@@ -1,0 +1,345 @@
+//! The scene file: a small TOML format (documented in README.md) read into a [`Scene`].
+//!
+//! Every problem is an error that names the file and the line or field at fault; nothing here
+//! panics on bad input.
+
+use crate::camera::Camera;
+use crate::mesh_io::load_mesh;
+use crate::scene::{Light, Material, Scene, SceneMesh};
+use crate::shapes;
+use glam::DVec3;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// A scene that could not be loaded: the file and what is wrong with it.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{}: {message}", file.display())]
+pub struct SceneError {
+    /// The scene file.
+    pub file: PathBuf,
+    /// What is wrong (with the line, field or mesh file at fault).
+    pub message: String,
+}
+
+type Vec3 = [f64; 3];
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneFile {
+    camera: CameraDesc,
+    #[serde(default)]
+    materials: BTreeMap<String, MaterialDesc>,
+    #[serde(default)]
+    lights: Vec<LightDesc>,
+    #[serde(default)]
+    shapes: Vec<ShapeDesc>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraDesc {
+    eye: Vec3,
+    look_at: Vec3,
+    up: Vec3,
+    fov_y: f64,
+    width: u32,
+    height: u32,
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum MaterialDesc {
+    Diffuse { albedo: Vec3 },
+    Mirror { reflectance: Vec3 },
+    Glass { ior: f64 },
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum LightDesc {
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    Spot {
+        position: Vec3,
+        direction: Vec3,
+        intensity: Vec3,
+        cone_angle: f64,
+        falloff_start: Option<f64>,
+    },
+    Quad {
+        corner: Vec3,
+        edge_u: Vec3,
+        edge_v: Vec3,
+        radiance: Vec3,
+    },
+}
+
+#[derive(Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
+enum ShapeDesc {
+    Mesh {
+        file: PathBuf,
+        material: String,
+    },
+    Quad {
+        corner: Vec3,
+        edge_u: Vec3,
+        edge_v: Vec3,
+        material: String,
+    },
+    Sphere {
+        center: Vec3,
+        radius: f64,
+        material: String,
+        segments: Option<u32>,
+    },
+}
+
+/// Largest image side accepted, to catch typos before allocating a huge film.
+pub const MAX_IMAGE_SIDE: u32 = 32768;
+
+/// Reads and checks the scene file at `path`; mesh paths are relative to its folder.
+pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    let err = |message: String| SceneError {
+        file: path.to_path_buf(),
+        message,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    parse_scene(&text, base).map_err(err)
+}
+
+/// Parses scene text; `base` is the folder mesh paths are relative to.
+pub fn parse_scene(text: &str, base: &Path) -> Result<Scene, String> {
+    let file: SceneFile = toml::from_str(text).map_err(|e| e.to_string().trim().to_string())?;
+    build(file, base)
+}
+
+fn vec3(field: &str, v: Vec3) -> Result<DVec3, String> {
+    if v.iter().all(|c| c.is_finite()) {
+        Ok(DVec3::from(v))
+    } else {
+        Err(format!(
+            "{field}: every component must be a finite number, got {v:?}"
+        ))
+    }
+}
+
+fn non_negative(field: &str, v: Vec3) -> Result<DVec3, String> {
+    let d = vec3(field, v)?;
+    if d.min_element() < 0.0 {
+        return Err(format!("{field}: components must be >= 0, got {v:?}"));
+    }
+    Ok(d)
+}
+
+fn number(field: &str, x: f64) -> Result<f64, String> {
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("{field}: must be a finite number, got {x}"))
+    }
+}
+
+fn parallelogram(field: &str, corner: Vec3, u: Vec3, v: Vec3) -> Result<[DVec3; 3], String> {
+    let c = vec3(&format!("{field}.corner"), corner)?;
+    let u = vec3(&format!("{field}.edge_u"), u)?;
+    let v = vec3(&format!("{field}.edge_v"), v)?;
+    if u.cross(v).length() <= 1e-12 * u.length() * v.length() || u == DVec3::ZERO {
+        return Err(format!(
+            "{field}: edge_u and edge_v must be non-zero and not parallel"
+        ));
+    }
+    Ok([c, u, v])
+}
+
+fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
+    let c = &file.camera;
+    let fov = number("camera.fov_y", c.fov_y)?;
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(format!(
+            "camera.fov_y: must be in (0, 180) degrees, got {fov}"
+        ));
+    }
+    for (name, side) in [("width", c.width), ("height", c.height)] {
+        if side == 0 || side > MAX_IMAGE_SIDE {
+            return Err(format!(
+                "camera.{name}: must be in 1..={MAX_IMAGE_SIDE}, got {side}"
+            ));
+        }
+    }
+    let eye = vec3("camera.eye", c.eye)?;
+    let look_at = vec3("camera.look_at", c.look_at)?;
+    let up = vec3("camera.up", c.up)?;
+    if eye == look_at {
+        return Err("camera: eye and look_at are the same point".into());
+    }
+    let camera = Camera::look_at(eye, look_at, up, fov, c.width, c.height)
+        .ok_or("camera.up: must not be zero or parallel to the view direction (look_at - eye)")?;
+
+    let mut materials = BTreeMap::new();
+    for (name, m) in &file.materials {
+        let field = format!("materials.{name}");
+        let material = match *m {
+            MaterialDesc::Diffuse { albedo } => {
+                let albedo = non_negative(&format!("{field}.albedo"), albedo)?;
+                if albedo.max_element() > 1.0 {
+                    return Err(format!("{field}.albedo: components must be <= 1"));
+                }
+                Material::Diffuse { albedo }
+            }
+            MaterialDesc::Mirror { reflectance } => {
+                let reflectance = non_negative(&format!("{field}.reflectance"), reflectance)?;
+                if reflectance.max_element() > 1.0 {
+                    return Err(format!("{field}.reflectance: components must be <= 1"));
+                }
+                Material::Mirror { reflectance }
+            }
+            MaterialDesc::Glass { ior } => {
+                let ior = number(&format!("{field}.ior"), ior)?;
+                if ior <= 0.0 {
+                    return Err(format!("{field}.ior: must be > 0, got {ior}"));
+                }
+                Material::Glass { ior }
+            }
+        };
+        materials.insert(name.clone(), material);
+    }
+    let material = |field: &str, name: &str| -> Result<Material, String> {
+        materials.get(name).copied().ok_or_else(|| {
+            let known: Vec<&str> = materials.keys().map(String::as_str).collect();
+            format!(
+                "{field}.material: unknown material '{name}' (defined: {})",
+                if known.is_empty() {
+                    "none".to_string()
+                } else {
+                    known.join(", ")
+                }
+            )
+        })
+    };
+
+    let mut meshes = Vec::new();
+    for (i, shape) in file.shapes.iter().enumerate() {
+        let field = format!("shapes[{i}]");
+        let (kind, mesh, material) = match shape {
+            ShapeDesc::Mesh { file, material: m } => {
+                let path = base.join(file);
+                let mesh = load_mesh(&path).map_err(|e| format!("{field}.file: {e}"))?;
+                ("mesh", mesh, material(&field, m)?)
+            }
+            ShapeDesc::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                material: m,
+            } => {
+                let [c, u, v] = parallelogram(&field, *corner, *edge_u, *edge_v)?;
+                ("quad", shapes::quad(c, u, v), material(&field, m)?)
+            }
+            ShapeDesc::Sphere {
+                center,
+                radius,
+                material: m,
+                segments,
+            } => {
+                let center = vec3(&format!("{field}.center"), *center)?;
+                let radius = number(&format!("{field}.radius"), *radius)?;
+                if radius <= 0.0 {
+                    return Err(format!("{field}.radius: must be > 0, got {radius}"));
+                }
+                let segments = segments.unwrap_or(shapes::DEFAULT_SPHERE_SEGMENTS);
+                if !(3..=8192).contains(&segments) {
+                    return Err(format!(
+                        "{field}.segments: must be in 3..=8192, got {segments}"
+                    ));
+                }
+                let mesh = shapes::sphere(center, radius, segments);
+                ("sphere", mesh, material(&field, m)?)
+            }
+        };
+        mesh.validate()
+            .map_err(|e| format!("{field} ({kind}): {e}"))?;
+        meshes.push(SceneMesh {
+            name: format!("{field} ({kind})"),
+            mesh,
+            material,
+        });
+    }
+
+    let mut lights = Vec::new();
+    for (i, l) in file.lights.iter().enumerate() {
+        let field = format!("lights[{i}]");
+        let light = match *l {
+            LightDesc::Point {
+                position,
+                intensity,
+            } => Light::Point {
+                position: vec3(&format!("{field}.position"), position)?,
+                intensity: non_negative(&format!("{field}.intensity"), intensity)?,
+            },
+            LightDesc::Spot {
+                position,
+                direction,
+                intensity,
+                cone_angle,
+                falloff_start,
+            } => {
+                let direction = vec3(&format!("{field}.direction"), direction)?
+                    .try_normalize()
+                    .ok_or(format!("{field}.direction: must not be zero"))?;
+                let cone = number(&format!("{field}.cone_angle"), cone_angle)?;
+                if !(cone > 0.0 && cone <= 180.0) {
+                    return Err(format!(
+                        "{field}.cone_angle: must be in (0, 180] degrees, got {cone}"
+                    ));
+                }
+                let start = number(
+                    &format!("{field}.falloff_start"),
+                    falloff_start.unwrap_or(cone),
+                )?;
+                if !(0.0..=cone).contains(&start) {
+                    return Err(format!(
+                        "{field}.falloff_start: must be in [0, cone_angle] degrees, got {start}"
+                    ));
+                }
+                Light::Spot {
+                    position: vec3(&format!("{field}.position"), position)?,
+                    direction,
+                    intensity: non_negative(&format!("{field}.intensity"), intensity)?,
+                    cos_cone: cone.to_radians().cos(),
+                    cos_falloff_start: start.to_radians().cos(),
+                }
+            }
+            LightDesc::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                radiance,
+            } => {
+                let [c, u, v] = parallelogram(&field, corner, edge_u, edge_v)?;
+                let radiance = non_negative(&format!("{field}.radiance"), radiance)?;
+                meshes.push(SceneMesh {
+                    name: format!("{field} (quad light)"),
+                    mesh: shapes::quad(c, u, v),
+                    material: Material::Emitter { radiance },
+                });
+                Light::Quad {
+                    corner: c,
+                    edge_u: u,
+                    edge_v: v,
+                    radiance,
+                }
+            }
+        };
+        lights.push(light);
+    }
+    Ok(Scene {
+        camera,
+        lights,
+        meshes,
+    })
+}

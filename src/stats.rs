@@ -1,0 +1,104 @@
+//! Render statistics: time per stage and rays by kind, printed as a summary and written as JSON.
+
+use serde::Serialize;
+use std::time::Instant;
+
+/// Rays traced, by kind. Counted per tile and summed, so counting costs no shared atomics.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct RayCounts {
+    /// Primary rays from the camera.
+    pub camera: u64,
+    /// Rays continuing a camera path after a mirror or glass surface.
+    pub specular: u64,
+    /// Shadow (occlusion) rays towards light samples.
+    pub shadow: u64,
+}
+
+impl RayCounts {
+    /// All rays.
+    pub fn total(&self) -> u64 {
+        self.camera + self.specular + self.shadow
+    }
+
+    /// Adds `other` into `self`.
+    pub fn add(&mut self, other: &RayCounts) {
+        self.camera += other.camera;
+        self.specular += other.specular;
+        self.shadow += other.shadow;
+    }
+}
+
+/// One timed stage of a run.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Stage {
+    /// Name, e.g. "load scene".
+    pub name: String,
+    /// Wall-clock seconds.
+    pub seconds: f64,
+}
+
+/// Statistics of one run.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Stats {
+    /// Timed stages in order.
+    pub stages: Vec<Stage>,
+    /// Rays by kind.
+    pub rays: RayCounts,
+    /// Rays Embree could not take (NaN, infinite, huge) and that were treated as misses.
+    pub invalid_rays: u64,
+    /// Camera paths cut by the specular depth limit.
+    pub paths_cut_at_max_depth: u64,
+    /// Threads used for rendering.
+    pub threads: usize,
+}
+
+impl Stats {
+    /// Runs `f`, recording its wall-clock time as stage `name`.
+    pub fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
+        let start = Instant::now();
+        let out = f();
+        self.stages.push(Stage {
+            name: name.to_string(),
+            seconds: start.elapsed().as_secs_f64(),
+        });
+        out
+    }
+
+    /// Seconds spent in stage `name` (0 if absent).
+    pub fn seconds(&self, name: &str) -> f64 {
+        self.stages
+            .iter()
+            .filter(|s| s.name == name)
+            .map(|s| s.seconds)
+            .sum()
+    }
+
+    /// A human-readable summary.
+    pub fn summary(&self) -> String {
+        let mut out = String::from("statistics:\n");
+        for s in &self.stages {
+            out += &format!("  {:<20} {:>10.3} s\n", s.name, s.seconds);
+        }
+        let render = self.seconds("render");
+        let r = &self.rays;
+        out += &format!(
+            "  rays: {} camera, {} specular, {} shadow, {} invalid\n",
+            r.camera, r.specular, r.shadow, self.invalid_rays
+        );
+        if render > 0.0 {
+            out += &format!(
+                "  {:.2} M rays/s over {} threads ({:.2} M camera rays/s)\n",
+                r.total() as f64 / render / 1e6,
+                self.threads,
+                r.camera as f64 / render / 1e6
+            );
+        }
+        if self.paths_cut_at_max_depth > 0 {
+            out += &format!(
+                "  {} camera paths cut at the maximum specular depth\n",
+                self.paths_cut_at_max_depth
+            );
+        }
+        out
+    }
+}

@@ -1,0 +1,193 @@
+//! Camera paths through mirror and glass to their diffuse hits, with ray differentials.
+//!
+//! Reflection and refraction are both followed, weighted by Fresnel: deterministic, no random
+//! choice. A branch ends at a diffuse surface, a light, a miss, the depth limit, or when its weight
+//! drops below [`MIN_BRANCH_WEIGHT`].
+
+use crate::differential::{fresnel_dielectric, RayDifferential, Refraction, SurfaceFrame};
+use crate::embree::{self, Hit, Ray};
+use crate::scene::{Material, Scene};
+use crate::stats::RayCounts;
+use glam::DVec3;
+
+/// Branches whose largest channel weight falls below this are dropped: they would change a
+/// pixel by less than 0.1% of what the same path contributes at full weight.
+pub const MIN_BRANCH_WEIGHT: f64 = 1e-3;
+
+/// Where a camera path meets a diffuse surface.
+#[derive(Debug, Clone, Copy)]
+pub struct DiffuseVertex {
+    /// The hit.
+    pub hit: Hit,
+    /// The ray differential transferred to the hit (its footprint at the hit).
+    pub ray: RayDifferential,
+    /// Path weight: product of specular reflectances and Fresnel factors, times the sample's
+    /// share of its pixel.
+    pub weight: DVec3,
+    /// The diffuse albedo.
+    pub albedo: DVec3,
+    /// Which camera sample of the tile this vertex belongs to.
+    pub sample: usize,
+}
+
+/// Follows camera paths; shared by all the samples of a tile.
+pub struct ViewPaths<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its Embree scene.
+    pub embree: &'a embree::Scene,
+    /// Maximum number of specular bounces.
+    pub max_depth: u32,
+    /// Offset of secondary ray origins off a surface, along its normal.
+    pub epsilon: f64,
+}
+
+/// What following one path produced besides diffuse vertices.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct PathTally {
+    /// Rays traced after a specular bounce.
+    pub rays: RayCounts,
+    /// Branches cut by the depth limit.
+    pub cut_at_max_depth: u64,
+}
+
+/// The normal facing the incoming direction `d`, given a normal of either orientation.
+pub fn facing(n: DVec3, d: DVec3) -> DVec3 {
+    if n.dot(d) > 0.0 {
+        -n
+    } else {
+        n
+    }
+}
+
+impl ViewPaths<'_> {
+    /// Processes the first hit of `ray` (already traced): collects diffuse vertices into
+    /// `vertices`, adds directly seen emission into `radiance`, follows specular branches.
+    #[allow(clippy::too_many_arguments)]
+    pub fn follow(
+        &self,
+        ray: &RayDifferential,
+        hit: Option<Hit>,
+        weight: DVec3,
+        depth: u32,
+        sample: usize,
+        vertices: &mut Vec<DiffuseVertex>,
+        radiance: &mut DVec3,
+        tally: &mut PathTally,
+    ) {
+        let Some(hit) = hit else { return };
+        let at_hit = ray.transfer((hit.position - ray.p).dot(ray.d), hit.geometric_normal);
+        let d = ray.d;
+        // Normals facing the incoming ray; the shading normal follows the geometric side.
+        let ng = facing(hit.geometric_normal, d);
+        let side = if ng == hit.geometric_normal {
+            1.0
+        } else {
+            -1.0
+        };
+        let ns = hit.shading_normal * side;
+        let frame = SurfaceFrame {
+            n: if ns.dot(d) < 0.0 { ns } else { ng },
+            dn: if ns.dot(d) < 0.0 {
+                at_hit.dp.map(|dp| hit.normal_differential(dp) * side)
+            } else {
+                [DVec3::ZERO; 2]
+            },
+        };
+        match *self.scene.material(hit.geom_id) {
+            Material::Diffuse { albedo } => vertices.push(DiffuseVertex {
+                hit,
+                ray: at_hit,
+                weight,
+                albedo,
+                sample,
+            }),
+            Material::Emitter { radiance: le } => {
+                if d.dot(hit.geometric_normal) < 0.0 {
+                    *radiance += weight * le;
+                }
+            }
+            Material::Mirror { reflectance } => {
+                let reflected = at_hit.reflect(&frame);
+                self.branch(
+                    reflected,
+                    ng,
+                    weight * reflectance,
+                    depth,
+                    sample,
+                    vertices,
+                    radiance,
+                    tally,
+                );
+            }
+            Material::Glass { ior } => {
+                let entering = d.dot(hit.geometric_normal) < 0.0;
+                let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
+                let f = fresnel_dielectric(-d.dot(frame.n), n_from, n_to);
+                match at_hit.refract(&frame, n_from, n_to) {
+                    Refraction::Transmitted(t) => {
+                        let reflected = at_hit.reflect(&frame);
+                        self.branch(
+                            reflected,
+                            ng,
+                            weight * f,
+                            depth,
+                            sample,
+                            vertices,
+                            radiance,
+                            tally,
+                        );
+                        self.branch(
+                            t,
+                            -ng,
+                            weight * (1.0 - f),
+                            depth,
+                            sample,
+                            vertices,
+                            radiance,
+                            tally,
+                        );
+                    }
+                    Refraction::TotalInternalReflection(r) => {
+                        self.branch(r, ng, weight, depth, sample, vertices, radiance, tally);
+                    }
+                }
+            }
+        }
+    }
+
+    /// Traces a specular continuation leaving on the side of `side_normal`.
+    #[allow(clippy::too_many_arguments)]
+    fn branch(
+        &self,
+        ray: RayDifferential,
+        side_normal: DVec3,
+        weight: DVec3,
+        depth: u32,
+        sample: usize,
+        vertices: &mut Vec<DiffuseVertex>,
+        radiance: &mut DVec3,
+        tally: &mut PathTally,
+    ) {
+        if weight.max_element() < MIN_BRANCH_WEIGHT {
+            return;
+        }
+        if depth + 1 > self.max_depth {
+            tally.cut_at_max_depth += 1;
+            return;
+        }
+        let origin = ray.p + side_normal * self.epsilon;
+        tally.rays.specular += 1;
+        let hit = self.embree.intersect(&Ray::new(origin, ray.d));
+        self.follow(
+            &ray,
+            hit,
+            weight,
+            depth + 1,
+            sample,
+            vertices,
+            radiance,
+            tally,
+        );
+    }
+}
