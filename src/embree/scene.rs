@@ -24,6 +24,7 @@ impl TriangleMesh {
     /// vertices, out-of-range indices, zero-area triangles, mismatched or zero normals.
     pub fn validate(&self) -> Result<(), String> {
         let finite = |p: &[f32; 3]| p.iter().all(|c| c.is_finite() && c.abs() < 1.0e18);
+        // Embree drops such vertices' triangles silently, and a huge one trips its assertions.
         if let Some(i) = self.positions.iter().position(|p| !finite(p)) {
             return Err(format!("vertex {i} is not finite: {:?}", self.positions[i]));
         }
@@ -59,7 +60,12 @@ impl TriangleMesh {
             let area2 = (b - a).cross(c - a).length();
             let scale = (b - a).length().max((c - a).length()).max(1e-30);
             if area2.is_nan() || area2 <= 1e-12 * scale * scale {
-                return Err(format!("triangle {i} is degenerate (zero area): {tri:?}"));
+                return Err(format!(
+                    "triangle {i} is degenerate (zero area): {:?} {:?} {:?}",
+                    a.to_array(),
+                    b.to_array(),
+                    c.to_array()
+                ));
             }
         }
         Ok(())

@@ -1,0 +1,212 @@
+//! Direct light against analytic values, and bit-identical images on any thread count.
+
+use glam::DVec3;
+use photondiff::camera::Camera;
+use photondiff::embree::Device;
+use photondiff::render::{render, RenderOptions};
+use photondiff::scene::Scene;
+use photondiff::scene_file::{load_scene, parse_scene};
+use photondiff::stats::Stats;
+use std::f64::consts::PI;
+use std::path::Path;
+
+fn canonical() -> Scene {
+    load_scene(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    )))
+    .unwrap()
+}
+
+/// Radiance of the floor at `p` lit by a point light of intensity `i` at `light`, unblocked:
+/// `I cos(theta) / d^2 * albedo / pi`.
+fn floor_radiance(p: DVec3, light: DVec3, i: f64, albedo: f64) -> f64 {
+    let to = light - p;
+    let d2 = to.length_squared();
+    i * (to.y / d2.sqrt()) / d2 * albedo / PI
+}
+
+/// The pixel's box-filtered average of `f` over the floor points it sees, with `n` x `n` samples.
+fn pixel_average(camera: &Camera, px: u32, py: u32, n: u32, f: impl Fn(DVec3) -> f64) -> f64 {
+    let mut sum = 0.0;
+    for j in 0..n {
+        for i in 0..n {
+            let x = px as f64 + (i as f64 + 0.5) / n as f64;
+            let y = py as f64 + (j as f64 + 0.5) / n as f64;
+            let ray = camera.ray(x, y, 1.0);
+            let t = -ray.p.y / ray.d.y;
+            sum += f(ray.p + ray.d * t);
+        }
+    }
+    sum / (n * n) as f64
+}
+
+#[test]
+fn floor_pixel_seeing_0_0_3_matches_the_analytic_direct_light() {
+    let scene = canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let camera = &scene.camera;
+    let (x, y) = camera.project(DVec3::new(0.0, 0.0, 3.0)).unwrap();
+    let (px, py) = (x.floor() as u32, y.floor() as u32);
+    let light = DVec3::new(-4.0, 4.0, -1.0);
+    let expected = pixel_average(camera, px, py, 64, |p| floor_radiance(p, light, 60.0, 0.75));
+    for grid in [1, 3] {
+        let film = render(
+            &scene,
+            &embree,
+            &RenderOptions::default().with_view_grid(grid),
+            &mut Stats::default(),
+        )
+        .unwrap();
+        let got = film.pixel(px, py);
+        for c in got.to_array() {
+            assert!(
+                (c - expected).abs() <= 0.01 * expected,
+                "view grid {grid}: pixel ({px}, {py}) = {c}, analytic {expected}"
+            );
+        }
+    }
+    // And the value is not trivially right: the neighbourhood varies more than the tolerance.
+    let far = pixel_average(camera, px, py.saturating_sub(60), 4, |p| {
+        floor_radiance(p, light, 60.0, 0.75)
+    });
+    assert!((far - expected).abs() > 0.05 * expected);
+}
+
+const AREA_SCENE: &str = r#"
+[camera]
+eye = [0.0, 3.0, 6.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 45.0
+width = 64
+height = 48
+
+[materials.white]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[materials.mirror]
+type = "mirror"
+reflectance = [0.9, 0.9, 0.9]
+
+[materials.glass]
+type = "glass"
+ior = 1.5
+
+[[lights]]
+type = "quad"
+corner = [-0.05, 4.0, -0.05]
+edge_u = [0.1, 0.0, 0.0]
+edge_v = [0.0, 0.0, 0.1]
+radiance = [2000.0, 1000.0, 500.0]
+
+[[lights]]
+type = "spot"
+position = [2.0, 3.0, 0.0]
+direction = [-1.0, -1.5, 0.0]
+intensity = [5.0, 5.0, 5.0]
+cone_angle = 25.0
+falloff_start = 15.0
+
+[[shapes]]
+type = "quad"
+corner = [-5.0, 0.0, 5.0]
+edge_u = [10.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -10.0]
+material = "white"
+
+[[shapes]]
+type = "sphere"
+center = [-1.5, 0.7, 0.0]
+radius = 0.7
+material = "mirror"
+segments = 64
+
+[[shapes]]
+type = "sphere"
+center = [1.5, 0.7, 0.5]
+radius = 0.7
+material = "glass"
+segments = 64
+"#;
+
+#[test]
+fn small_quad_light_matches_its_point_light_limit() {
+    // A 0.1 x 0.1 light at height 4 facing down acts, to well under 1%, as a point light of
+    // intensity L A cos(theta_light): E = L A cos_l cos_x / d^2.
+    let scene = parse_scene(AREA_SCENE, Path::new(".")).unwrap();
+    let scene = Scene {
+        lights: scene.lights[..1].to_vec(),
+        ..scene
+    };
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let film = render(
+        &scene,
+        &embree,
+        &RenderOptions::default().with_view_grid(2),
+        &mut Stats::default(),
+    )
+    .unwrap();
+    let light = DVec3::new(0.0, 4.0, 0.0);
+    let p = DVec3::new(0.3, 0.0, 2.0);
+    let (x, y) = scene.camera.project(p).unwrap();
+    let (px, py) = (x as u32, y as u32);
+    let expected = pixel_average(&scene.camera, px, py, 32, |q| {
+        let to = light - q;
+        let d2 = to.length_squared();
+        let cos = to.y / d2.sqrt();
+        0.01 * cos * cos / d2 * 0.5 / PI
+    });
+    let got = film.pixel(px, py);
+    for (c, l) in got.to_array().iter().zip([2000.0, 1000.0, 500.0]) {
+        assert!(
+            (c - l * expected).abs() < 0.01 * l * expected,
+            "{c} vs {}",
+            l * expected
+        );
+    }
+}
+
+#[test]
+fn images_are_bit_identical_whatever_the_thread_count() {
+    let scene = parse_scene(AREA_SCENE, Path::new(".")).unwrap();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let options = RenderOptions::default().with_view_grid(2).with_seed(42);
+    let mut stats = Stats::default();
+    let one = render(
+        &scene,
+        &embree,
+        &options.clone().with_threads(1),
+        &mut stats,
+    )
+    .unwrap();
+    let two = render(
+        &scene,
+        &embree,
+        &options.clone().with_threads(2),
+        &mut Stats::default(),
+    )
+    .unwrap();
+    assert!(one == two, "images differ between 1 and 2 threads");
+    // The scene exercises every path: shadow rays, specular rays, and a non-black image.
+    assert!(stats.rays.specular > 0 && stats.rays.shadow > 0);
+    assert!(one
+        .pixels
+        .iter()
+        .all(|p| p.is_finite() && p.min_element() >= 0.0));
+    let lit = one.pixels.iter().filter(|p| p.max_element() > 0.0).count();
+    assert!(lit > one.pixels.len() / 2, "only {lit} pixels lit");
+    // Another seed moves the area-light samples.
+    let other = render(
+        &scene,
+        &embree,
+        &options.with_seed(7),
+        &mut Stats::default(),
+    )
+    .unwrap();
+    assert!(one != other, "the seed changes nothing");
+}

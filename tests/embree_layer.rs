@@ -1,0 +1,204 @@
+//! The Embree layer: known hits, packets against single rays, invalid rays, mesh validation.
+
+use glam::DVec3;
+use photondiff::embree::{Device, EmbreeError, Hit, Ray, Scene, SceneBuilder, TriangleMesh};
+use photondiff::rng::Rng;
+use photondiff::shapes;
+
+fn scene() -> Scene {
+    let device = Device::new().unwrap();
+    let mut builder = SceneBuilder::new(&device);
+    // Geometry 0: the square [-1, 1]^2 at z = 0, facing +z.
+    let id = builder
+        .add_mesh(&shapes::quad(
+            DVec3::new(-1.0, -1.0, 0.0),
+            DVec3::new(2.0, 0.0, 0.0),
+            DVec3::new(0.0, 2.0, 0.0),
+        ))
+        .unwrap();
+    assert_eq!(id, 0);
+    // Geometry 1: a unit sphere at (0, 0, 3).
+    let id = builder
+        .add_mesh(&shapes::sphere(DVec3::new(0.0, 0.0, 3.0), 1.0, 256))
+        .unwrap();
+    assert_eq!(id, 1);
+    builder.commit().unwrap()
+}
+
+#[test]
+fn known_hit_distances_and_primitive_ids() {
+    let scene = scene();
+    let down = DVec3::new(0.0, 0.0, -1.0);
+    // (0.5, -0.5) lies in the quad's first triangle (v0 v1 v2), (-0.5, 0.5) in its second.
+    let hit = scene
+        .intersect(&Ray::new(DVec3::new(0.5, -0.5, 1.5), down))
+        .unwrap();
+    assert_eq!((hit.geom_id, hit.prim_id), (0, 0));
+    assert!((hit.t - 1.5).abs() < 1e-6, "{}", hit.t);
+    assert!(hit.position.abs_diff_eq(DVec3::new(0.5, -0.5, 0.0), 1e-6));
+    assert!(hit.geometric_normal.abs_diff_eq(DVec3::Z, 1e-12));
+    let hit = scene
+        .intersect(&Ray::new(DVec3::new(-0.5, 0.5, 1.5), down))
+        .unwrap();
+    assert_eq!((hit.geom_id, hit.prim_id), (0, 1));
+    // The sphere's top, 10 - 4 = 6 away along -z.
+    let hit = scene
+        .intersect(&Ray::new(DVec3::new(0.0, 0.0, 10.0), down))
+        .unwrap();
+    assert_eq!(hit.geom_id, 1);
+    assert!((hit.t - 6.0).abs() < 1e-6, "{}", hit.t);
+    assert!(hit.shading_normal.abs_diff_eq(DVec3::Z, 1e-6));
+    // Off-centre: the interpolated normal is the sphere's normal, the facet's is not quite.
+    let origin = DVec3::new(0.3, 0.2, 10.0);
+    let hit = scene.intersect(&Ray::new(origin, down)).unwrap();
+    let exact_t = 10.0 - 3.0 - (1.0f64 - 0.13).sqrt();
+    // The facets lie inside the sphere by at most twice the sagitta of a 1/256 turn.
+    let sagitta = 1.0 - (std::f64::consts::PI / 256.0).cos();
+    assert!(
+        (hit.t - exact_t).abs() < 2.0 * sagitta,
+        "{} vs {exact_t}",
+        hit.t
+    );
+    let exact_n = (hit.position - DVec3::new(0.0, 0.0, 3.0)).normalize();
+    assert!((hit.shading_normal - exact_n).length() < 1e-4);
+    // A segment that stops short misses; occlusion agrees.
+    let short = Ray::segment(DVec3::new(0.5, -0.5, 1.5), down, 1.4);
+    assert!(scene.intersect(&short).is_none());
+    assert!(!scene.occluded(&short));
+    assert!(scene.occluded(&Ray::segment(DVec3::new(0.5, -0.5, 1.5), down, 1.6)));
+    assert!(scene
+        .intersect(&Ray::new(DVec3::new(5.0, 5.0, 1.0), down))
+        .is_none());
+}
+
+fn random_rays(n: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed, 0);
+    (0..n)
+        .map(|_| {
+            let origin = DVec3::new(rng.uniform() * 4.0 - 2.0, rng.uniform() * 4.0 - 2.0, 8.0);
+            let target = DVec3::new(rng.uniform() * 3.0 - 1.5, rng.uniform() * 3.0 - 1.5, 0.0);
+            Ray::new(origin, (target - origin).normalize())
+        })
+        .collect()
+}
+
+fn same(a: &Option<Hit>, b: &Option<Hit>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(a), Some(b)) => {
+            a.geom_id == b.geom_id && a.prim_id == b.prim_id && (a.t - b.t).abs() < 1e-5
+        }
+        _ => false,
+    }
+}
+
+#[test]
+fn packets_agree_with_single_rays() {
+    let scene = scene();
+    let rays = random_rays(16 * 40 + 5, 3);
+    let mut hits = [None; 16];
+    let mut blocked = [false; 16];
+    let mut n_hits = 0;
+    for (k, chunk) in rays.chunks(16).enumerate() {
+        scene.intersect16(chunk, k % 2 == 0, &mut hits);
+        scene.occluded16(chunk, k % 2 == 1, &mut blocked);
+        for (lane, ray) in chunk.iter().enumerate() {
+            let single = scene.intersect(ray);
+            assert!(same(&single, &hits[lane]), "ray {ray:?}");
+            assert_eq!(scene.occluded(ray), blocked[lane]);
+            n_hits += usize::from(single.is_some());
+        }
+    }
+    // The rays were aimed so that both hits and misses occur.
+    assert!(n_hits > 100 && n_hits < rays.len() - 100, "{n_hits}");
+}
+
+#[test]
+fn invalid_rays_are_misses_counted_and_never_abort() {
+    let scene = scene();
+    let good = Ray::new(DVec3::new(0.5, -0.5, 1.5), DVec3::NEG_Z);
+    let bad = [
+        Ray::new(DVec3::new(f64::NAN, 0.0, 1.0), DVec3::NEG_Z),
+        Ray::new(DVec3::ZERO, DVec3::new(0.0, f64::INFINITY, -1.0)),
+        Ray::new(DVec3::new(0.0, 0.0, 2e18), DVec3::NEG_Z),
+        Ray::new(DVec3::new(0.0, 0.0, 1.0), DVec3::ZERO),
+        Ray {
+            tnear: -1.0,
+            ..good
+        },
+        Ray {
+            tfar: f64::NAN,
+            ..good
+        },
+        Ray {
+            tnear: 2.0,
+            tfar: 1.0,
+            ..good
+        },
+    ];
+    for ray in &bad {
+        assert!(!ray.is_valid(), "{ray:?}");
+        assert!(scene.intersect(ray).is_none());
+        assert!(!scene.occluded(ray));
+    }
+    assert_eq!(scene.invalid_rays(), 2 * bad.len() as u64);
+    // In a packet, the invalid lanes miss and the valid ones still hit.
+    let mut packet = bad.to_vec();
+    packet.push(good);
+    let mut hits = [None; 16];
+    scene.intersect16(&packet, true, &mut hits);
+    assert!(hits[..bad.len()].iter().all(Option::is_none));
+    assert_eq!(hits[bad.len()].unwrap().prim_id, 0);
+    let mut blocked = [true; 16];
+    scene.occluded16(&packet, true, &mut blocked);
+    assert!(blocked[..bad.len()].iter().all(|b| !b));
+    assert!(blocked[bad.len()]);
+    assert_eq!(scene.invalid_rays(), 4 * bad.len() as u64);
+}
+
+#[test]
+fn scenes_are_shared_across_threads() {
+    fn assert_send_sync<T: Send + Sync>() {}
+    assert_send_sync::<Scene>();
+    let scene = scene();
+    let rays = random_rays(2000, 9);
+    let expected: Vec<_> = rays.iter().map(|r| scene.intersect(r)).collect();
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| {
+                for (ray, e) in rays.iter().zip(&expected) {
+                    assert!(same(&scene.intersect(ray), e));
+                }
+            });
+        }
+    });
+}
+
+#[test]
+fn malformed_meshes_are_rejected_with_a_reason() {
+    let device = Device::new().unwrap();
+    let mut builder = SceneBuilder::new(&device);
+    let tri = |positions: Vec<[f32; 3]>, triangles: Vec<[u32; 3]>| TriangleMesh {
+        positions,
+        normals: None,
+        triangles,
+    };
+    let cases = [
+        (
+            tri(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, f32::NAN, 0.0]], vec![[0, 1, 2]]),
+            "invalid mesh: vertex 2 is not finite: [0.0, NaN, 0.0]",
+        ),
+        (
+            tri(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 3]]),
+            "invalid mesh: triangle 0 uses vertex 3, but the mesh has 3 vertices",
+        ),
+        (
+            tri(vec![[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], vec![[0, 1, 2]]),
+            "invalid mesh: triangle 0 is degenerate (zero area): [0.0, 0.0, 0.0] [1.0, 0.0, 0.0] [2.0, 0.0, 0.0]",
+        ),
+    ];
+    for (mesh, message) in cases {
+        let err: EmbreeError = builder.add_mesh(&mesh).unwrap_err();
+        assert_eq!(err.to_string(), message);
+    }
+}

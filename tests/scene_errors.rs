@@ -1,0 +1,263 @@
+//! Every kind of bad scene input gives a clear message naming the file and the field or line,
+//! and the command line exits non-zero without panicking.
+
+use photondiff::scene_file::load_scene;
+use std::path::Path;
+use std::process::Command;
+
+const CAMERA: &str = r#"
+[camera]
+eye = [0.0, 2.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 40.0
+width = 32
+height = 24
+"#;
+
+const REST: &str = r#"
+[materials.white]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[[lights]]
+type = "point"
+position = [0.0, 4.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+"#;
+
+/// Writes `scene` (and extra files) into a temporary folder and returns the load error.
+fn error_of(scene: &str, files: &[(&str, &str)]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    for (name, text) in files {
+        std::fs::write(dir.path().join(name), text).unwrap();
+    }
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, scene).unwrap();
+    let message = load_scene(&path).unwrap_err().to_string();
+    let prefix = format!("{}: ", path.display());
+    assert!(message.starts_with(&prefix), "{message}");
+    // Make the message independent of the temporary folder.
+    message[prefix.len()..].replace(&format!("{}/", dir.path().display()), "")
+}
+
+fn with_shape(shape: &str) -> String {
+    format!("{CAMERA}{REST}\n[[shapes]]\n{shape}\n")
+}
+
+#[test]
+fn unknown_keys_are_named_with_their_line() {
+    let e = error_of(&format!("{CAMERA}fov = 3\n{REST}"), &[]);
+    assert!(e.starts_with("TOML parse error at line 9, column 1"), "{e}");
+    assert!(e.contains("unknown field `fov`"), "{e}");
+    let e = error_of(&with_shape("type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\"\ncolour = 1"), &[]);
+    assert!(e.contains("unknown field `colour`"), "{e}");
+    let e = error_of(
+        &format!("{CAMERA}{REST}\n[[shapes]]\ntype = \"cone\"\n"),
+        &[],
+    );
+    assert!(
+        e.contains("unknown variant `cone`, expected one of `mesh`, `quad`, `sphere`"),
+        "{e}"
+    );
+}
+
+#[test]
+fn syntax_errors_name_the_line() {
+    let e = error_of(&format!("{CAMERA}{REST}\n[[shapes]\n"), &[]);
+    assert!(
+        e.starts_with("TOML parse error at line 19, column 9"),
+        "{e}"
+    );
+    assert!(e.contains("19 | [[shapes]"), "{e}");
+}
+
+#[test]
+fn missing_and_unreadable_mesh_files() {
+    let e = error_of(
+        &with_shape("type = \"mesh\"\nfile = \"nowhere.obj\"\nmaterial = \"white\""),
+        &[],
+    );
+    assert!(
+        e.starts_with("shapes[0].file: nowhere.obj: cannot read OBJ: "),
+        "{e}"
+    );
+    let e = error_of(
+        &with_shape("type = \"mesh\"\nfile = \"bad.ply\"\nmaterial = \"white\""),
+        &[("bad.ply", "this is not a ply file\n")],
+    );
+    assert!(
+        e.starts_with("shapes[0].file: bad.ply: cannot parse PLY: "),
+        "{e}"
+    );
+    let e = error_of(
+        &with_shape("type = \"mesh\"\nfile = \"model.stl\"\nmaterial = \"white\""),
+        &[("model.stl", "solid\n")],
+    );
+    assert_eq!(
+        e,
+        "shapes[0].file: model.stl: unsupported mesh format (expected a .obj or .ply file)"
+    );
+}
+
+#[test]
+fn malformed_meshes_name_the_triangle() {
+    let obj = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\n";
+    let e = error_of(
+        &with_shape("type = \"mesh\"\nfile = \"flat.obj\"\nmaterial = \"white\""),
+        &[("flat.obj", obj)],
+    );
+    assert_eq!(e, "shapes[0].file: flat.obj: triangle 1 is degenerate (zero area): [0.0, 0.0, 0.0] [1.0, 0.0, 0.0] [2.0, 0.0, 0.0]");
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+               0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n";
+    let e = error_of(
+        &with_shape("type = \"mesh\"\nfile = \"tri.ply\"\nmaterial = \"white\""),
+        &[("tri.ply", ply)],
+    );
+    assert_eq!(
+        e,
+        "shapes[0].file: tri.ply: triangle 0 uses vertex 7, but the mesh has 3 vertices"
+    );
+    let e = error_of(
+        &with_shape("type = \"mesh\"\nfile = \"nan.obj\"\nmaterial = \"white\""),
+        &[("nan.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n")],
+    );
+    assert_eq!(
+        e,
+        "shapes[0].file: nan.obj: vertex 1 is not finite: [NaN, 0.0, 0.0]"
+    );
+}
+
+#[test]
+fn non_finite_numbers_are_rejected() {
+    let e = error_of(
+        &with_shape(
+            "type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = inf\nmaterial = \"white\"",
+        ),
+        &[],
+    );
+    assert_eq!(e, "shapes[0].radius: must be a finite number, got inf");
+    let e = error_of(
+        &with_shape(
+            "type = \"sphere\"\ncenter = [0.0, nan, 0.0]\nradius = 1.0\nmaterial = \"white\"",
+        ),
+        &[],
+    );
+    assert_eq!(
+        e,
+        "shapes[0].center: every component must be a finite number, got [0.0, NaN, 0.0]"
+    );
+    let e = error_of(
+        &format!("{CAMERA}{REST}").replace(
+            "intensity = [10.0, 10.0, 10.0]",
+            "intensity = [10.0, -inf, 10.0]",
+        ),
+        &[],
+    );
+    assert_eq!(
+        e,
+        "lights[0].intensity: every component must be a finite number, got [10.0, -inf, 10.0]"
+    );
+}
+
+#[test]
+fn invalid_values_are_explained() {
+    let glass = format!("{CAMERA}{REST}\n[materials.glass]\ntype = \"glass\"\nior = 0.0\n");
+    assert_eq!(
+        error_of(&glass, &[]),
+        "materials.glass.ior: must be > 0, got 0"
+    );
+    let up = format!("{CAMERA}{REST}").replace("up = [0.0, 1.0, 0.0]", "up = [0.0, 2.0, 5.0]");
+    assert_eq!(
+        error_of(&up, &[]),
+        "camera.up: must not be zero or parallel to the view direction (look_at - eye)"
+    );
+    let e = error_of(&with_shape("type = \"quad\"\ncorner = [0.0, 0.0, 0.0]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"white\""), &[]);
+    assert_eq!(
+        e,
+        "shapes[0]: edge_u and edge_v must be non-zero and not parallel"
+    );
+    let e = error_of(
+        &with_shape(
+            "type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"gold\"",
+        ),
+        &[],
+    );
+    assert_eq!(
+        e,
+        "shapes[0].material: unknown material 'gold' (defined: white)"
+    );
+    let e = error_of(
+        &format!("{CAMERA}{REST}").replace("width = 32", "width = 0"),
+        &[],
+    );
+    assert_eq!(e, "camera.width: must be in 1..=32768, got 0");
+}
+
+#[test]
+fn a_missing_scene_file_is_an_error() {
+    let e = load_scene(Path::new("/nonexistent/scene.toml"))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("/nonexistent/scene.toml: cannot read: "),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_command_line_fails_cleanly_and_renders_good_scenes() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.toml");
+    std::fs::write(
+        &bad,
+        format!("{CAMERA}{REST}").replace("fov_y = 40.0", "fov_y = 200.0"),
+    )
+    .unwrap();
+    let out = Command::new(exe).arg("render").arg(&bad).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(
+        stderr.trim(),
+        format!(
+            "photondiff: error: {}: camera.fov_y: must be in (0, 180) degrees, got 200",
+            bad.display()
+        )
+    );
+
+    let good = dir.path().join("good.toml");
+    std::fs::write(
+        &good,
+        format!("{CAMERA}{REST}\n[[shapes]]\ntype = \"quad\"\ncorner = [-2.0, 0.0, 2.0]\nedge_u = [4.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -4.0]\nmaterial = \"white\"\n"),
+    )
+    .unwrap();
+    let exr = dir.path().join("o/img.exr");
+    let stats = dir.path().join("o/stats.json");
+    let out = Command::new(exe)
+        .args([
+            "render",
+            "--quiet",
+            "--view-grid",
+            "2",
+            "--threads",
+            "1",
+            "-o",
+        ])
+        .arg(&exr)
+        .arg("--stats-json")
+        .arg(&stats)
+        .arg(&good)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(exr.exists() && exr.with_extension("png").exists());
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    assert_eq!(json["rays"]["camera"], 32 * 24 * 4);
+    assert_eq!(json["threads"], 1);
+}
