@@ -103,7 +103,7 @@ impl Scene {
     /// `hits[i]` answers `rays[i]`; invalid rays are answered `None` and counted.
     pub fn intersect16(&self, rays: &[Ray], coherent: bool, hits: &mut [Option<Hit>]) {
         assert!(rays.len() <= PACKET_WIDTH && hits.len() >= rays.len());
-        let mut packet = Box::<RayHit16>::default();
+        let mut packet = RayHit16::default();
         let mut valid = Valid16::default();
         for (lane, ray) in rays.iter().enumerate() {
             if ray.is_valid() {
@@ -173,7 +173,7 @@ impl Scene {
     /// Embree's raw 16-wide throughput on `rays` (consecutive groups of 16 as packets).
     pub fn raw_intersect16(&self, rays: &RawRays, coherent: bool) -> usize {
         let mut context = ffi::intersect_context(coherent);
-        let mut packet = Box::<RayHit16>::default();
+        let mut packet = RayHit16::default();
         let mut hits = 0;
         for (chunk, valid) in rays.packets.iter().zip(&rays.valid) {
             packet.0.ray = chunk.0;
