@@ -12,6 +12,9 @@ use std::time::Instant;
 
 const REPEATS: usize = 7;
 
+/// A named measurement: runs the queries once, returns a checksum.
+type Case<'a> = (&'static str, Box<dyn FnMut() -> usize + 'a>);
+
 /// Camera rays of the whole image, one per pixel, in 4 x 4 pixel blocks (coherent packets).
 fn camera_rays(scene: &photondiff::scene::Scene) -> Vec<Ray> {
     let c = &scene.camera;
@@ -44,7 +47,7 @@ fn shadow_rays(embree: &Scene, camera: &[Ray], light: DVec3) -> Vec<Ray> {
 
 /// Median seconds of `f` over the repetitions, with every measurement interleaved with the
 /// others (`fs` run round-robin) so that machine noise hits all alike.
-fn measure(fs: &mut [(&str, Box<dyn FnMut() -> usize + '_>)]) -> Vec<f64> {
+fn measure(fs: &mut [Case<'_>]) -> Vec<f64> {
     let mut times = vec![Vec::new(); fs.len()];
     let mut checksum = 0;
     for _ in 0..REPEATS {
@@ -93,7 +96,7 @@ fn main() {
     let camera = camera_rays(&scene);
     let raw_camera = RawRays::new(&camera);
     let mut hits = vec![None; 16];
-    let mut fs: Vec<(&str, Box<dyn FnMut() -> usize>)> = vec![
+    let mut fs: Vec<Case> = vec![
         (
             "Embree rtcIntersect1 (raw)",
             Box::new(|| embree.raw_intersect1(&raw_camera)),
@@ -146,7 +149,7 @@ fn main() {
     let shadow = shadow_rays(&embree, &camera, light);
     let raw_shadow = RawRays::new(&shadow);
     let mut blocked = vec![false; 16];
-    let mut fs: Vec<(&str, Box<dyn FnMut() -> usize>)> = vec![
+    let mut fs: Vec<Case> = vec![
         (
             "Embree rtcOccluded1 (raw)",
             Box::new(|| embree.raw_occluded1(&raw_shadow)),
