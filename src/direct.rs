@@ -4,7 +4,8 @@
 use crate::embree::{self, Ray, PACKET_WIDTH};
 use crate::rng::Rng;
 use crate::scene::{Light, Scene};
-use crate::view_path::{facing, DiffuseVertex};
+use crate::surface::facing;
+use crate::view_path::DiffuseVertex;
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
 

@@ -2,6 +2,8 @@
 
 use clap::{Parser, Subcommand};
 use photondiff::embree::Device;
+use photondiff::lighting::{trace_photon_maps, EstimatorKind};
+use photondiff::photon_trace::PhotonOptions;
 use photondiff::render::{render, RenderOptions};
 use photondiff::scene_file::load_scene;
 use photondiff::stats::Stats;
@@ -56,6 +58,22 @@ struct RenderArgs {
     /// Area-light samples per shading point along each axis (N x N stratified).
     #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
     area_samples: u32,
+    /// Radiance estimate of the photon maps: `direct` (no photon maps, direct light only),
+    /// `jensen` (k nearest photons) or `pd` (photon differentials).
+    #[arg(long, value_enum, default_value_t = EstimatorKind::Pd)]
+    estimator: EstimatorKind,
+    /// Global photons: emissions traced for the global map (indirect light).
+    #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
+    global_photons: usize,
+    /// Photons stored in the caustic map.
+    #[arg(long, value_name = "N", default_value_t = 20_000)]
+    caustic_photons: usize,
+    /// Nearest photons per regular (jensen) estimate.
+    #[arg(long, value_name = "N", default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    k: u32,
+    /// Photon footprint size, as the expected number of footprints covering a point (pd).
+    #[arg(long, value_name = "X", default_value_t = 32.0)]
+    overlap: f64,
     /// No progress bar and no statistics summary.
     #[arg(short, long)]
     quiet: bool,
@@ -99,7 +117,38 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
         .with_max_depth(args.max_depth)
         .with_area_strata(args.area_samples)
         .with_progress(!args.quiet && std::io::stderr().is_terminal());
-    let film = render(&scene, &embree, &options, &mut stats)?;
+    let photon_options = PhotonOptions {
+        global_photons: args.global_photons,
+        caustic_photons: args.caustic_photons,
+        overlap: args.overlap,
+        seed: args.seed,
+        ..PhotonOptions::default()
+    };
+    if !(args.overlap.is_finite() && args.overlap > 0.0) {
+        return Err(format!(
+            "--overlap must be a positive number, got {}",
+            args.overlap
+        ));
+    }
+    let maps = match args.estimator {
+        EstimatorKind::Direct => None,
+        _ => Some(trace_photon_maps(
+            &scene,
+            &embree,
+            &photon_options,
+            args.threads,
+            options.progress,
+            &mut stats,
+        )?),
+    };
+    let max_radius = photon_options.limits(&scene).max_radius;
+    let estimators = maps
+        .as_ref()
+        .map(|m| m.estimators(args.estimator, args.k as usize, max_radius))
+        .unwrap_or_default();
+    let refs: Vec<&dyn photondiff::estimate::RadianceEstimator> =
+        estimators.iter().map(|e| e.as_ref()).collect();
+    let film = render(&scene, &embree, &refs, &options, &mut stats)?;
 
     let stem = args
         .scene
@@ -123,6 +172,20 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
             "photondiff/view_grid".to_string(),
             args.view_grid.to_string(),
         ),
+        (
+            "photondiff/estimator".to_string(),
+            format!("{:?}", args.estimator).to_lowercase(),
+        ),
+        (
+            "photondiff/photons".to_string(),
+            args.global_photons.to_string(),
+        ),
+        (
+            "photondiff/caustic_photons".to_string(),
+            args.caustic_photons.to_string(),
+        ),
+        ("photondiff/k".to_string(), args.k.to_string()),
+        ("photondiff/overlap".to_string(), args.overlap.to_string()),
         ("photondiff/seed".to_string(), args.seed.to_string()),
         (
             "photondiff/max_depth".to_string(),

@@ -7,10 +7,12 @@
 
 use crate::direct::DirectLight;
 use crate::embree::{self, Hit, Ray, PACKET_WIDTH};
+use crate::estimate::{GatherCounts, GatherQuery, RadianceEstimator};
 use crate::film::Film;
 use crate::rng::Rng;
 use crate::scene::Scene;
 use crate::stats::{RayCounts, Stats};
+use crate::surface::facing;
 use crate::view_path::{DiffuseVertex, PathTally, ViewPaths};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -87,6 +89,7 @@ struct TileResult {
     pixels: Vec<DVec3>,
     rays: RayCounts,
     cut_at_max_depth: u64,
+    gathers: GatherCounts,
 }
 
 /// A rectangle of pixels `[x0, x1) x [y0, y1)`.
@@ -99,9 +102,12 @@ struct Tile {
 }
 
 /// Renders `scene` (already built into `embree`) and records the "render" stage in `stats`.
+/// Radiance at each diffuse hit is the direct light plus the sum of the `estimators` (the
+/// caustic and global photon map estimates; none for direct light only).
 pub fn render(
     scene: &Scene,
     embree: &embree::Scene,
+    estimators: &[&dyn RadianceEstimator],
     options: &RenderOptions,
     stats: &mut Stats,
 ) -> Result<Film, String> {
@@ -129,7 +135,7 @@ pub fn render(
     stats.threads = pool.current_num_threads();
     let progress = crate::progress::bar(options.progress, tiles.len() as u64, "render");
     let invalid_before = embree.invalid_rays();
-    let renderer = TileRenderer::new(scene, embree, options);
+    let renderer = TileRenderer::new(scene, embree, estimators, options);
     let results: Vec<TileResult> = stats.time("render", || {
         pool.install(|| {
             tiles
@@ -152,6 +158,7 @@ pub fn render(
         }
         stats.rays.add(&result.rays);
         stats.paths_cut_at_max_depth += result.cut_at_max_depth;
+        stats.gathers.add(&result.gathers);
     }
     stats.invalid_rays += embree.invalid_rays() - invalid_before;
     Ok(film)
@@ -162,18 +169,24 @@ struct TileRenderer<'a> {
     scene: &'a Scene,
     embree: &'a embree::Scene,
     options: &'a RenderOptions,
+    estimators: &'a [&'a dyn RadianceEstimator],
     paths: ViewPaths<'a>,
     direct: DirectLight<'a>,
 }
 
 impl<'a> TileRenderer<'a> {
-    fn new(scene: &'a Scene, embree: &'a embree::Scene, options: &'a RenderOptions) -> Self {
-        // Far above Embree's single-precision error at the scene's scale, far below any feature.
-        let epsilon = 2e-5 * scene.extent();
+    fn new(
+        scene: &'a Scene,
+        embree: &'a embree::Scene,
+        estimators: &'a [&'a dyn RadianceEstimator],
+        options: &'a RenderOptions,
+    ) -> Self {
+        let epsilon = scene.ray_epsilon();
         TileRenderer {
             scene,
             embree,
             options,
+            estimators,
             paths: ViewPaths {
                 scene,
                 embree,
@@ -224,6 +237,7 @@ impl<'a> TileRenderer<'a> {
         let mut pixels = vec![DVec3::ZERO; tw * (tile.y1 - tile.y0) as usize];
         let samples = self.samples(tile);
         let mut tally = PathTally::default();
+        let mut gathers = GatherCounts::default();
         let mut vertices: Vec<DiffuseVertex> = Vec::new();
         let mut radiance = [DVec3::ZERO; PACKET_WIDTH];
         let mut hits: [Option<Hit>; PACKET_WIDTH] = [None; PACKET_WIDTH];
@@ -258,6 +272,19 @@ impl<'a> TileRenderer<'a> {
                 );
             }
             tally.rays.shadow += self.direct.add(&vertices, &mut rng, &mut radiance);
+            if !self.estimators.is_empty() {
+                for v in &vertices {
+                    let query = GatherQuery {
+                        position: v.hit.position,
+                        normal: facing(v.hit.geometric_normal, v.ray.d),
+                        albedo: v.albedo,
+                        footprint: v.ray.dp,
+                    };
+                    for estimator in self.estimators {
+                        radiance[v.sample] += v.weight * estimator.radiance(&query, &mut gathers);
+                    }
+                }
+            }
             for (lane, &(pixel, _, _)) in chunk.iter().enumerate() {
                 pixels[pixel] += radiance[lane];
             }
@@ -266,6 +293,7 @@ impl<'a> TileRenderer<'a> {
             pixels,
             rays: tally.rays,
             cut_at_max_depth: tally.cut_at_max_depth,
+            gathers,
         }
     }
 }

@@ -144,6 +144,12 @@ impl Scene {
         &self.meshes[geom_id as usize].material
     }
 
+    /// Offset of secondary ray origins off a surface, along its normal: far above Embree's
+    /// single-precision error at the scene's scale, far below any feature.
+    pub fn ray_epsilon(&self) -> f64 {
+        2e-5 * self.extent()
+    }
+
     /// The diagonal of the scene's bounding box (at least 1e-3), to scale ray offsets.
     pub fn extent(&self) -> f64 {
         let mut lo = DVec3::splat(f64::INFINITY);

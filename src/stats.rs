@@ -1,5 +1,8 @@
 //! Render statistics: time per stage and rays by kind, printed as a summary and written as JSON.
 
+use crate::estimate::GatherCounts;
+use crate::footprint::Guards;
+use crate::photon_map::PathClass;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -50,6 +53,27 @@ pub struct Stats {
     pub paths_cut_at_max_depth: u64,
     /// Threads used for rendering.
     pub threads: usize,
+    /// The photon maps traced.
+    pub photon_maps: Vec<MapStats>,
+    /// Photon map gathers.
+    pub gathers: GatherCounts,
+}
+
+/// How one photon map was made.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MapStats {
+    /// Which paths it holds.
+    pub class: PathClass,
+    /// Emissions traced.
+    pub emitted: u64,
+    /// Photons stored.
+    pub stored: u64,
+    /// Rays traced for it.
+    pub rays: u64,
+    /// Total stored power (mean over channels, W).
+    pub power: f64,
+    /// Guarded footprints.
+    pub guards: Guards,
 }
 
 impl Stats {
@@ -91,6 +115,30 @@ impl Stats {
                 r.total() as f64 / render / 1e6,
                 self.threads,
                 r.camera as f64 / render / 1e6
+            );
+        }
+        for m in &self.photon_maps {
+            out += &format!(
+                "  {:?} map: {} photons stored from {} emissions ({} rays), power {:.4} W; \
+                 guarded footprints: {} clamped small, {} clamped large, {} anisotropy, {} fallback\n",
+                m.class,
+                m.stored,
+                m.emitted,
+                m.rays,
+                m.power,
+                m.guards.clamped_min,
+                m.guards.clamped_max,
+                m.guards.clamped_anisotropy,
+                m.guards.fallback
+            );
+        }
+        let g = &self.gathers;
+        if g.gathers > 0 {
+            out += &format!(
+                "  {} gathers, {:.1} photons found and {:.1} used per gather\n",
+                g.gathers,
+                g.photons_found as f64 / g.gathers as f64,
+                g.photons_used as f64 / g.gathers as f64
             );
         }
         if self.paths_cut_at_max_depth > 0 {

@@ -4,10 +4,11 @@
 //! choice. A branch ends at a diffuse surface, a light, a miss, the depth limit, or when its weight
 //! drops below [`MIN_BRANCH_WEIGHT`].
 
-use crate::differential::{fresnel_dielectric, RayDifferential, Refraction, SurfaceFrame};
+use crate::differential::{fresnel_dielectric, RayDifferential, Refraction};
 use crate::embree::{self, Hit, Ray};
 use crate::scene::{Material, Scene};
 use crate::stats::RayCounts;
+use crate::surface::{surface_frame, transfer_to};
 use glam::DVec3;
 
 /// Branches whose largest channel weight falls below this are dropped: they would change a
@@ -51,15 +52,6 @@ pub struct PathTally {
     pub cut_at_max_depth: u64,
 }
 
-/// The normal facing the incoming direction `d`, given a normal of either orientation.
-pub fn facing(n: DVec3, d: DVec3) -> DVec3 {
-    if n.dot(d) > 0.0 {
-        -n
-    } else {
-        n
-    }
-}
-
 impl ViewPaths<'_> {
     /// Processes the first hit of `ray` (already traced): collects diffuse vertices into
     /// `vertices`, adds directly seen emission into `radiance`, follows specular branches.
@@ -76,24 +68,9 @@ impl ViewPaths<'_> {
         tally: &mut PathTally,
     ) {
         let Some(hit) = hit else { return };
-        let at_hit = ray.transfer((hit.position - ray.p).dot(ray.d), hit.geometric_normal);
+        let at_hit = transfer_to(ray, &hit);
         let d = ray.d;
-        // Normals facing the incoming ray; the shading normal follows the geometric side.
-        let ng = facing(hit.geometric_normal, d);
-        let side = if ng == hit.geometric_normal {
-            1.0
-        } else {
-            -1.0
-        };
-        let ns = hit.shading_normal * side;
-        let frame = SurfaceFrame {
-            n: if ns.dot(d) < 0.0 { ns } else { ng },
-            dn: if ns.dot(d) < 0.0 {
-                at_hit.dp.map(|dp| hit.normal_differential(dp) * side)
-            } else {
-                [DVec3::ZERO; 2]
-            },
-        };
+        let (frame, ng) = surface_frame(&hit, &at_hit);
         match *self.scene.material(hit.geom_id) {
             Material::Diffuse { albedo } => vertices.push(DiffuseVertex {
                 hit,

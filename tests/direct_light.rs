@@ -55,6 +55,7 @@ fn floor_pixel_seeing_0_0_3_matches_the_analytic_direct_light() {
         let film = render(
             &scene,
             &embree,
+            &[],
             &RenderOptions::default().with_view_grid(grid),
             &mut Stats::default(),
         )
@@ -146,6 +147,7 @@ fn small_quad_light_matches_its_point_light_limit() {
     let film = render(
         &scene,
         &embree,
+        &[],
         &RenderOptions::default().with_view_grid(2),
         &mut Stats::default(),
     )
@@ -180,6 +182,7 @@ fn images_are_bit_identical_whatever_the_thread_count() {
     let one = render(
         &scene,
         &embree,
+        &[],
         &options.clone().with_threads(1),
         &mut stats,
     )
@@ -187,6 +190,7 @@ fn images_are_bit_identical_whatever_the_thread_count() {
     let two = render(
         &scene,
         &embree,
+        &[],
         &options.clone().with_threads(2),
         &mut Stats::default(),
     )
@@ -204,6 +208,7 @@ fn images_are_bit_identical_whatever_the_thread_count() {
     let other = render(
         &scene,
         &embree,
+        &[],
         &options.with_seed(7),
         &mut Stats::default(),
     )

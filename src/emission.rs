@@ -1,0 +1,376 @@
+//! Photon emission from point, spot and quad lights, with the emission differentials of
+//! photon differentials (Schjoth et al. 2007).
+//!
+//! Footprint convention (see [`crate::footprint`]): differentials are *radius* vectors. A light
+//! emitting `N` photons into solid angle `Omega` gives each a beam whose elliptical cross-section
+//! covers `overlap * Omega / N` steradians: `|dD/du| = |dD/dv| = sqrt(overlap Omega / (pi N))`,
+//! orthogonal to the direction, `dP = 0`. A quad light of area `A` gives each photon a disc of
+//! area `overlap * A / N` along the light's edges, `dD = 0`. `overlap` is the number of
+//! footprints expected to cover a point (1 tiles the surface exactly; more trades blur for
+//! noise, as `k` does in the regular estimate).
+//!
+//! Global photons sample every light in proportion to its power. Caustic photons are aimed at
+//! the bounding spheres of the specular meshes (a projection map): each light-sphere pair gets a
+//! share of the photons proportional to the power the light sends into the sphere's cone, and
+//! each photon's power is divided by the density it was drawn with, so that photons stand for
+//! exactly the emission they sample.
+
+use crate::differential::RayDifferential;
+use crate::footprint::tangent_frame;
+use crate::rng::Rng;
+use crate::scene::{Light, Scene};
+use glam::DVec3;
+use std::f64::consts::PI;
+
+/// One emitted photon before it is traced: its ray differential and its power as if it were
+/// the only photon emitted (the tracer divides by the number of emissions).
+#[derive(Debug, Clone, Copy)]
+pub struct Emission {
+    /// Origin, direction and emission differentials.
+    pub ray: RayDifferential,
+    /// Power for a single emission (W, RGB).
+    pub power: DVec3,
+}
+
+/// A bounding sphere of a specular mesh.
+#[derive(Debug, Clone, Copy)]
+struct Target {
+    center: DVec3,
+    radius: f64,
+}
+
+/// The cone from `from` around a target: its axis and the cosine of its half-angle.
+fn cone(from: DVec3, target: &Target) -> (DVec3, f64) {
+    let to = target.center - from;
+    let d = to.length();
+    if d <= target.radius * (1.0 + 1e-9) {
+        return (DVec3::Y, -1.0); // inside the sphere: every direction
+    }
+    let sin = target.radius / d;
+    (to / d, (1.0 - sin * sin).sqrt())
+}
+
+fn cone_solid_angle(cos_max: f64) -> f64 {
+    2.0 * PI * (1.0 - cos_max)
+}
+
+/// A unit vector in the cone of axis `w` and half-angle cosine `cos_max`, uniform in solid angle.
+fn sample_cone(w: DVec3, cos_max: f64, u: f64, v: f64) -> DVec3 {
+    let cos = 1.0 - u * (1.0 - cos_max);
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    let phi = 2.0 * PI * v;
+    let (t1, t2) = tangent_frame(w);
+    (w * cos + t1 * (sin * phi.cos()) + t2 * (sin * phi.sin())).normalize()
+}
+
+/// A cosine-distributed unit vector about `n`.
+pub fn sample_cosine(n: DVec3, u: f64, v: f64) -> DVec3 {
+    let r = u.sqrt();
+    let phi = 2.0 * PI * v;
+    let (t1, t2) = tangent_frame(n);
+    (n * (1.0 - u).max(0.0).sqrt() + t1 * (r * phi.cos()) + t2 * (r * phi.sin())).normalize()
+}
+
+/// The plastic-number (R2) low-discrepancy sequence: every prefix is well stratified in 2D,
+/// so emission directions are even whatever number of photons ends up emitted.
+fn r2(index: u64, shift: [f64; 2]) -> (f64, f64) {
+    const A1: f64 = 0.754_877_666_246_692_8; // 1 / plastic number
+    const A2: f64 = 0.569_840_290_998_053_3; // 1 / plastic number^2
+    let i = index as f64;
+    ((shift[0] + i * A1).fract(), (shift[1] + i * A2).fract())
+}
+
+fn mean(c: DVec3) -> f64 {
+    (c.x + c.y + c.z) / 3.0
+}
+
+/// One way photons leave a light: the light, and for caustic photons the target sphere.
+#[derive(Debug, Clone, Copy)]
+struct Source {
+    light: Light,
+    /// For caustic photons, the target; `None` for global photons.
+    target: Option<Target>,
+    /// Probability of choosing this source.
+    probability: f64,
+    /// Radius of the emission differentials: angular for point and spot lights, positional for
+    /// quad lights.
+    spread: f64,
+}
+
+/// Draws emissions for one photon map.
+pub struct Emitter {
+    sources: Vec<Source>,
+    cdf: Vec<f64>,
+    shift: [f64; 2],
+}
+
+impl Emitter {
+    /// Emission of global photons: every light in proportion to its power; `photons` is the
+    /// number expected (it sizes the differentials).
+    pub fn global(scene: &Scene, photons: usize, overlap: f64, seed: u64) -> Self {
+        let weights: Vec<f64> = scene.lights.iter().map(light_power).collect();
+        let total: f64 = weights.iter().sum();
+        let sources = scene
+            .lights
+            .iter()
+            .zip(&weights)
+            .filter(|(_, &w)| w > 0.0)
+            .map(|(light, &w)| {
+                let p = w / total;
+                let n = (photons as f64 * p).max(1.0);
+                let spread = match *light {
+                    Light::Point { .. } => (overlap * 4.0 * PI / (PI * n)).sqrt(),
+                    Light::Spot { cos_cone, .. } => {
+                        (overlap * cone_solid_angle(cos_cone) / (PI * n)).sqrt()
+                    }
+                    Light::Quad { edge_u, edge_v, .. } => {
+                        (overlap * edge_u.cross(edge_v).length() / (PI * n)).sqrt()
+                    }
+                };
+                Source {
+                    light: *light,
+                    target: None,
+                    probability: p,
+                    spread,
+                }
+            })
+            .collect();
+        Self::new(sources, seed)
+    }
+
+    /// Emission of caustic photons towards the bounding spheres of the specular meshes.
+    /// Empty when the scene has no specular mesh.
+    pub fn caustic(scene: &Scene, photons: usize, overlap: f64, seed: u64) -> Self {
+        let targets: Vec<Target> = scene
+            .meshes
+            .iter()
+            .filter(|m| m.material.is_specular())
+            .map(|m| bounding_sphere(&m.mesh.positions))
+            .collect();
+        let mut pairs = Vec::new();
+        for light in &scene.lights {
+            for t in &targets {
+                let (w, weight) = match *light {
+                    Light::Point {
+                        position,
+                        intensity,
+                    } => (cone_solid_angle(cone(position, t).1), mean(intensity)),
+                    Light::Spot { position, .. } => {
+                        let (axis, cos) = cone(position, t);
+                        (cone_solid_angle(cos), mean(light.intensity_towards(axis)))
+                    }
+                    Light::Quad {
+                        corner,
+                        edge_u,
+                        edge_v,
+                        radiance,
+                    } => {
+                        let centre = corner + (edge_u + edge_v) * 0.5;
+                        let cross = edge_u.cross(edge_v);
+                        let (axis, cos) = cone(centre, t);
+                        let facing = axis.dot(cross.normalize()).max(0.05);
+                        (
+                            cone_solid_angle(cos),
+                            mean(radiance) * cross.length() * facing,
+                        )
+                    }
+                };
+                pairs.push((*light, *t, w, w * weight));
+            }
+        }
+        let total: f64 = pairs.iter().map(|p| p.3).sum();
+        let sources = pairs
+            .into_iter()
+            .filter(|p| p.3 > 0.0)
+            .map(|(light, target, omega, weight)| {
+                let p = weight / total;
+                let n = (photons as f64 * p).max(1.0);
+                let spread = match light {
+                    Light::Quad { edge_u, edge_v, .. } => {
+                        (overlap * edge_u.cross(edge_v).length() / (PI * n)).sqrt()
+                    }
+                    _ => (overlap * omega / (PI * n)).sqrt(),
+                };
+                Source {
+                    light,
+                    target: Some(target),
+                    probability: p,
+                    spread,
+                }
+            })
+            .collect();
+        Self::new(sources, seed)
+    }
+
+    fn new(sources: Vec<Source>, seed: u64) -> Self {
+        let mut acc = 0.0;
+        let cdf = sources
+            .iter()
+            .map(|s| {
+                acc += s.probability;
+                acc
+            })
+            .collect();
+        let mut rng = Rng::new(seed, u64::MAX);
+        Emitter {
+            sources,
+            cdf,
+            shift: [rng.uniform(), rng.uniform()],
+        }
+    }
+
+    /// Whether nothing can be emitted (no light, or no target for caustic photons).
+    pub fn is_empty(&self) -> bool {
+        self.sources.is_empty()
+    }
+
+    /// The `index`-th emission (`rng` is that photon's own stream), or `None` when the sample
+    /// carries no power (a quad light's back side).
+    pub fn emit(&self, index: u64, rng: &mut Rng) -> Option<Emission> {
+        let pick = rng.uniform();
+        let k = self
+            .cdf
+            .iter()
+            .position(|&c| pick < c)
+            .unwrap_or(self.sources.len() - 1);
+        let source = &self.sources[k];
+        let (u, v) = r2(index, self.shift);
+        match (source.light, source.target) {
+            (Light::Point { position, .. } | Light::Spot { position, .. }, None) => {
+                let (axis, cos_max) = match source.light {
+                    Light::Spot {
+                        direction,
+                        cos_cone,
+                        ..
+                    } => (direction, cos_cone),
+                    _ => (DVec3::Y, -1.0),
+                };
+                let d = sample_cone(axis, cos_max, u, v);
+                let omega = cone_solid_angle(cos_max);
+                let power = source.light.intensity_towards(d) * (omega / source.probability);
+                Some(point_emission(position, d, power, source.spread))
+            }
+            (Light::Point { position, .. } | Light::Spot { position, .. }, Some(target)) => {
+                let (axis, cos_max) = cone(position, &target);
+                let d = sample_cone(axis, cos_max, u, v);
+                let pdf = self.cone_pdf(position, &source.light, d);
+                let power = source.light.intensity_towards(d) / pdf;
+                Some(point_emission(position, d, power, source.spread))
+            }
+            (
+                Light::Quad {
+                    corner,
+                    edge_u,
+                    edge_v,
+                    radiance,
+                },
+                target,
+            ) => {
+                let cross = edge_u.cross(edge_v);
+                let area = cross.length();
+                let n = cross / area;
+                let y = corner + edge_u * u + edge_v * v;
+                let (a, b) = (rng.uniform(), rng.uniform());
+                let (d, power) = match target {
+                    None => (
+                        sample_cosine(n, a, b),
+                        radiance * (PI * area / source.probability),
+                    ),
+                    Some(t) => {
+                        let (axis, cos_max) = cone(y, &t);
+                        let d = sample_cone(axis, cos_max, a, b);
+                        let cos_light = d.dot(n);
+                        if cos_light <= 0.0 {
+                            return None;
+                        }
+                        let pdf = self.cone_pdf(y, &source.light, d) / area;
+                        (d, radiance * (cos_light / pdf))
+                    }
+                };
+                let eu = edge_u.normalize();
+                let mut ray = RayDifferential::new(y, d);
+                ray.dp = [eu * source.spread, n.cross(eu) * source.spread];
+                Some(Emission { ray, power })
+            }
+        }
+    }
+
+    /// Density (per steradian, times the probability of the light's sources) of drawing the
+    /// caustic direction `d` from `from` for `light`: every target cone holding `d` contributes.
+    fn cone_pdf(&self, from: DVec3, light: &Light, d: DVec3) -> f64 {
+        self.sources
+            .iter()
+            .filter(|s| s.light == *light)
+            .filter_map(|s| {
+                let (axis, cos_max) = cone(from, s.target.as_ref()?);
+                (d.dot(axis) >= cos_max).then(|| s.probability / cone_solid_angle(cos_max))
+            })
+            .sum()
+    }
+}
+
+/// A photon leaving a point at `position` along `d` with angular differentials of radius `spread`.
+fn point_emission(position: DVec3, d: DVec3, power: DVec3, spread: f64) -> Emission {
+    let (t1, t2) = tangent_frame(d);
+    let mut ray = RayDifferential::new(position, d);
+    ray.dd = [t1 * spread, t2 * spread];
+    Emission { ray, power }
+}
+
+/// Mean-channel power of a light (W): sets how many global photons it emits.
+pub fn light_power(light: &Light) -> f64 {
+    match *light {
+        Light::Point { intensity, .. } => 4.0 * PI * mean(intensity),
+        Light::Spot {
+            intensity,
+            cos_cone,
+            cos_falloff_start,
+            ..
+        } => cone_solid_angle(0.5 * (cos_cone + cos_falloff_start)) * mean(intensity),
+        Light::Quad {
+            edge_u,
+            edge_v,
+            radiance,
+            ..
+        } => PI * edge_u.cross(edge_v).length() * mean(radiance),
+    }
+}
+
+fn bounding_sphere(positions: &[[f32; 3]]) -> Target {
+    let points = positions.iter().map(|p| DVec3::from(p.map(f64::from)));
+    let (lo, hi) = points.clone().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(p), hi.max(p)),
+    );
+    let center = (lo + hi) * 0.5;
+    let radius = points.map(|p| (p - center).length()).fold(0.0, f64::max);
+    // A hair larger, so that rays grazing the tessellated surface are inside the cone.
+    Target {
+        center,
+        radius: radius * (1.0 + 1e-6) + 1e-9,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cone_samples_stay_in_the_cone_and_cosine_samples_above_the_surface() {
+        let axis = DVec3::new(1.0, 2.0, -0.5).normalize();
+        for i in 0..1000 {
+            let (u, v) = r2(i, [0.3, 0.7]);
+            assert!(sample_cone(axis, 0.9, u, v).dot(axis) >= 0.9 - 1e-12);
+            assert!(sample_cosine(axis, u, v).dot(axis) >= -1e-12);
+        }
+        // Uniform in solid angle: the mean cosine over a full sphere is 0.
+        let mean_cos: f64 = (0..100_000)
+            .map(|i| {
+                let (u, v) = r2(i, [0.1, 0.2]);
+                sample_cone(axis, -1.0, u, v).dot(axis)
+            })
+            .sum::<f64>()
+            / 100_000.0;
+        assert!(mean_cos.abs() < 1e-3, "{mean_cos}");
+    }
+}

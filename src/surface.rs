@@ -1,0 +1,48 @@
+//! The local surface at a hit, oriented against the incoming ray, as the differential formulas
+//! need it. Shared by camera paths and photon paths.
+
+use crate::differential::{RayDifferential, SurfaceFrame};
+use crate::embree::Hit;
+use glam::DVec3;
+
+/// The normal facing the incoming direction `d`, given a normal of either orientation.
+pub fn facing(n: DVec3, d: DVec3) -> DVec3 {
+    if n.dot(d) > 0.0 {
+        -n
+    } else {
+        n
+    }
+}
+
+/// The surface at `hit` for a ray differential `at` already transferred to it: the shading
+/// frame (normal facing the ray, and its differentials from the barycentric derivatives) and
+/// the geometric normal facing the ray. Where the shading normal faces away from the ray (an
+/// artefact of interpolated normals at silhouettes) the flat geometric frame is used.
+pub fn surface_frame(hit: &Hit, at: &RayDifferential) -> (SurfaceFrame, DVec3) {
+    let d = at.d;
+    let ng = facing(hit.geometric_normal, d);
+    let side = if ng == hit.geometric_normal {
+        1.0
+    } else {
+        -1.0
+    };
+    let ns = hit.shading_normal * side;
+    let frame = if ns.dot(d) < 0.0 {
+        SurfaceFrame {
+            n: ns,
+            dn: at.dp.map(|dp| hit.normal_differential(dp) * side),
+        }
+    } else {
+        SurfaceFrame {
+            n: ng,
+            dn: [DVec3::ZERO; 2],
+        }
+    };
+    (frame, ng)
+}
+
+/// Transfers `ray` to `hit`, measuring the distance from the differential's own origin (not
+/// the offset origin the query ray started from).
+pub fn transfer_to(ray: &RayDifferential, hit: &Hit) -> RayDifferential {
+    ray.transfer((hit.position - ray.p).dot(ray.d), hit.geometric_normal)
+}
