@@ -54,11 +54,30 @@ fn cone_solid_angle(cos_max: f64) -> f64 {
     2.0 * PI * (1.0 - cos_max)
 }
 
-/// A unit vector in the cone of axis `w` and half-angle cosine `cos_max`, uniform in solid angle.
+/// Shirley and Chiu's concentric map of the unit square onto the unit disc: equal-area and
+/// continuous, without the clustering a polar map makes at the centre.
+fn concentric_disc(u: f64, v: f64) -> (f64, f64) {
+    let (a, b) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return (0.0, 0.0);
+    }
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, PI / 4.0 * (b / a))
+    } else {
+        (b, PI / 2.0 - PI / 4.0 * (a / b))
+    };
+    (r * phi.cos(), r * phi.sin())
+}
+
+/// A unit vector in the cone of axis `w` and half-angle cosine `cos_max`, uniform in solid angle:
+/// the concentric disc lifted onto the spherical cap by the equal-area (Lambert) projection, so
+/// that well-stratified `(u, v)` give well-stratified directions, also around the axis.
 fn sample_cone(w: DVec3, cos_max: f64, u: f64, v: f64) -> DVec3 {
-    let cos = 1.0 - u * (1.0 - cos_max);
+    let (x, y) = concentric_disc(u, v);
+    let r2 = x * x + y * y;
+    let cos = 1.0 - r2 * (1.0 - cos_max);
     let sin = (1.0 - cos * cos).max(0.0).sqrt();
-    let phi = 2.0 * PI * v;
+    let phi = y.atan2(x);
     let (t1, t2) = tangent_frame(w);
     (w * cos + t1 * (sin * phi.cos()) + t2 * (sin * phi.sin())).normalize()
 }
@@ -243,7 +262,10 @@ impl Emitter {
                         cos_cone,
                         ..
                     } => (direction, cos_cone),
-                    _ => (DVec3::Y, -1.0),
+                    // Point lights: the equal-area map is smoothest around its axis and
+                    // squeezes the square's boundary into the opposite pole; lights usually
+                    // hang above what they light, so the axis points down.
+                    _ => (DVec3::NEG_Y, -1.0),
                 };
                 let d = sample_cone(axis, cos_max, u, v);
                 let omega = cone_solid_angle(cos_max);

@@ -14,7 +14,7 @@ use crate::footprint::{footprint, tangent_frame, FootprintLimits, Guards};
 use crate::photon_map::{PathClass, Photon, PhotonMap};
 use crate::rng::Rng;
 use crate::scene::{Material, Scene};
-use crate::surface::{surface_frame, transfer_to};
+use crate::surface::{continuation, surface_frame, transfer_to};
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -152,11 +152,17 @@ impl<'a> PhotonTracer<'a> {
         let mut power = emission.power;
         let (mut specular, mut diffuse) = (0u32, 0u32);
         let mut path_length = 0.0;
-        let mut origin = ray.p;
+        // The first segment leaves the light itself.
+        let mut tnear = 0.0;
         let mut rays = 0;
         for _ in 0..self.options.max_bounces {
             rays += 1;
-            let Some(hit) = self.embree.intersect(&Ray::new(origin, ray.d)) else {
+            let query = Ray {
+                tnear,
+                ..continuation(&ray, 0.0)
+            };
+            tnear = self.epsilon;
+            let Some(hit) = self.embree.intersect(&query) else {
                 break;
             };
             let at = transfer_to(&ray, &hit);
@@ -199,7 +205,6 @@ impl<'a> PhotonTracer<'a> {
                         dp: at.dp,
                         dd: [t1 * self.diffuse_spread, t2 * self.diffuse_spread],
                     };
-                    origin = at.p + ng * self.epsilon;
                     diffuse += 1;
                 }
                 Material::Mirror { reflectance } => {
@@ -209,7 +214,6 @@ impl<'a> PhotonTracer<'a> {
                     }
                     power *= reflectance / q;
                     ray = at.reflect(&frame);
-                    origin = at.p + ng * self.epsilon;
                     specular += 1;
                 }
                 Material::Glass { ior } => {
@@ -217,16 +221,14 @@ impl<'a> PhotonTracer<'a> {
                     let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
                     let f = fresnel_dielectric(-at.d.dot(frame.n), n_from, n_to);
                     // Reflect with probability F, refract otherwise: the power is unchanged.
-                    let (next, side) = if rng.uniform() < f {
-                        (at.reflect(&frame), ng)
+                    ray = if rng.uniform() < f {
+                        at.reflect(&frame)
                     } else {
                         match at.refract(&frame, n_from, n_to) {
-                            Refraction::Transmitted(t) => (t, -ng),
-                            Refraction::TotalInternalReflection(r) => (r, ng),
+                            Refraction::Transmitted(t) => t,
+                            Refraction::TotalInternalReflection(r) => r,
                         }
                     };
-                    ray = next;
-                    origin = at.p + side * self.epsilon;
                     specular += 1;
                 }
             }

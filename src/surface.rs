@@ -2,7 +2,7 @@
 //! need it. Shared by camera paths and photon paths.
 
 use crate::differential::{RayDifferential, SurfaceFrame};
-use crate::embree::Hit;
+use crate::embree::{Hit, Ray};
 use glam::DVec3;
 
 /// The normal facing the incoming direction `d`, given a normal of either orientation.
@@ -41,8 +41,24 @@ pub fn surface_frame(hit: &Hit, at: &RayDifferential) -> (SurfaceFrame, DVec3) {
     (frame, ng)
 }
 
-/// Transfers `ray` to `hit`, measuring the distance from the differential's own origin (not
-/// the offset origin the query ray started from).
+/// Transfers `ray` to `hit`. The query ray started a little off the surface the differential
+/// left, so the distance is measured from the differential's own origin, and the new origin is
+/// the hit point itself (exactly on the surface).
 pub fn transfer_to(ray: &RayDifferential, hit: &Hit) -> RayDifferential {
-    ray.transfer((hit.position - ray.p).dot(ray.d), hit.geometric_normal)
+    let mut at = ray.transfer((hit.position - ray.p).dot(ray.d), hit.geometric_normal);
+    at.p = hit.position;
+    at
+}
+
+/// The query ray that continues `ray` from the surface it is leaving. It starts exactly at the
+/// differential's origin and skips the first `epsilon` of its length, rather than starting off
+/// the surface: the traced ray is then exactly the one the differential describes, which
+/// matters near caustic focal points where a shifted ray lands measurably elsewhere.
+pub fn continuation(ray: &RayDifferential, epsilon: f64) -> Ray {
+    Ray {
+        origin: ray.p,
+        direction: ray.d,
+        tnear: epsilon,
+        tfar: f64::INFINITY,
+    }
 }

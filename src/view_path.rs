@@ -5,10 +5,10 @@
 //! drops below [`MIN_BRANCH_WEIGHT`].
 
 use crate::differential::{fresnel_dielectric, RayDifferential, Refraction};
-use crate::embree::{self, Hit, Ray};
+use crate::embree::{self, Hit};
 use crate::scene::{Material, Scene};
 use crate::stats::RayCounts;
-use crate::surface::{surface_frame, transfer_to};
+use crate::surface::{continuation, surface_frame, transfer_to};
 use glam::DVec3;
 
 /// Branches whose largest channel weight falls below this are dropped: they would change a
@@ -70,7 +70,7 @@ impl ViewPaths<'_> {
         let Some(hit) = hit else { return };
         let at_hit = transfer_to(ray, &hit);
         let d = ray.d;
-        let (frame, ng) = surface_frame(&hit, &at_hit);
+        let (frame, _) = surface_frame(&hit, &at_hit);
         match *self.scene.material(hit.geom_id) {
             Material::Diffuse { albedo } => vertices.push(DiffuseVertex {
                 hit,
@@ -88,7 +88,6 @@ impl ViewPaths<'_> {
                 let reflected = at_hit.reflect(&frame);
                 self.branch(
                     reflected,
-                    ng,
                     weight * reflectance,
                     depth,
                     sample,
@@ -106,7 +105,6 @@ impl ViewPaths<'_> {
                         let reflected = at_hit.reflect(&frame);
                         self.branch(
                             reflected,
-                            ng,
                             weight * f,
                             depth,
                             sample,
@@ -116,7 +114,6 @@ impl ViewPaths<'_> {
                         );
                         self.branch(
                             t,
-                            -ng,
                             weight * (1.0 - f),
                             depth,
                             sample,
@@ -126,19 +123,18 @@ impl ViewPaths<'_> {
                         );
                     }
                     Refraction::TotalInternalReflection(r) => {
-                        self.branch(r, ng, weight, depth, sample, vertices, radiance, tally);
+                        self.branch(r, weight, depth, sample, vertices, radiance, tally);
                     }
                 }
             }
         }
     }
 
-    /// Traces a specular continuation leaving on the side of `side_normal`.
+    /// Traces a specular continuation.
     #[allow(clippy::too_many_arguments)]
     fn branch(
         &self,
         ray: RayDifferential,
-        side_normal: DVec3,
         weight: DVec3,
         depth: u32,
         sample: usize,
@@ -153,9 +149,8 @@ impl ViewPaths<'_> {
             tally.cut_at_max_depth += 1;
             return;
         }
-        let origin = ray.p + side_normal * self.epsilon;
         tally.rays.specular += 1;
-        let hit = self.embree.intersect(&Ray::new(origin, ray.d));
+        let hit = self.embree.intersect(&continuation(&ray, self.epsilon));
         self.follow(
             &ray,
             hit,

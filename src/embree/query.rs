@@ -80,7 +80,7 @@ impl Scene {
         unsafe { ffi::rtcIntersect1(self.raw, &mut context, &mut rayhit) };
         let hit = &rayhit.hit;
         (hit.geomID != ffi::INVALID_GEOMETRY_ID)
-            .then(|| self.make_hit(hit.geomID, hit.primID, hit.u, hit.v, rayhit.ray.tfar))
+            .then(|| self.make_hit(ray, hit.geomID, hit.primID, hit.u, hit.v, rayhit.ray.tfar))
     }
 
     /// Whether anything blocks `ray` within `[tnear, tfar]`. An invalid ray counts as a miss
@@ -121,6 +121,7 @@ impl Scene {
         for (lane, hit) in hits.iter_mut().enumerate().take(rays.len()) {
             *hit = (valid.0[lane] != 0 && h.geomID[lane] != ffi::INVALID_GEOMETRY_ID).then(|| {
                 self.make_hit(
+                    &rays[lane],
                     h.geomID[lane],
                     h.primID[lane],
                     h.u[lane],

@@ -3,6 +3,7 @@
 use super::device::{Device, DeviceHandle, EmbreeError};
 use super::ffi;
 use super::hit::Hit;
+use super::ray::Ray;
 use glam::DVec3;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -234,14 +235,42 @@ impl Scene {
     }
 
     /// Completes a hit from Embree's ids, barycentrics and distance with this layer's mesh data.
-    pub(super) fn make_hit(&self, geom_id: u32, prim_id: u32, u: f32, v: f32, t: f32) -> Hit {
+    ///
+    /// Embree answers in single precision: on a large triangle its barycentrics place the hit
+    /// only to within ~1e-7 of the triangle's size, too coarse for differentials and finite
+    /// differences. The hit is therefore refined in double precision against the triangle's
+    /// plane (Embree's answer is kept where the ray is parallel to the plane).
+    pub(super) fn make_hit(
+        &self,
+        ray: &Ray,
+        geom_id: u32,
+        prim_id: u32,
+        u: f32,
+        v: f32,
+        t: f32,
+    ) -> Hit {
         let mesh = &self.meshes[geom_id as usize];
         let tri = mesh.triangle(prim_id);
         let p0 = mesh.vertex(tri[0]);
         let dp_du = mesh.vertex(tri[1]) - p0;
         let dp_dv = mesh.vertex(tri[2]) - p0;
-        let (u, v) = (u as f64, v as f64);
-        let geometric_normal = dp_du.cross(dp_dv).normalize();
+        let cross = dp_du.cross(dp_dv);
+        let geometric_normal = cross.normalize();
+        let (mut u, mut v, mut t) = (u as f64, v as f64, t as f64);
+        let denom = ray.direction.dot(cross);
+        if denom.abs() > 1e-12 * ray.direction.length() * cross.length() {
+            let t64 = (p0 - ray.origin).dot(cross) / denom;
+            let w = ray.origin + ray.direction * t64 - p0;
+            let area = cross.length_squared();
+            let u64 = w.cross(dp_dv).dot(cross) / area;
+            let v64 = dp_du.cross(w).dot(cross) / area;
+            if t64.is_finite() && u64.is_finite() && v64.is_finite() {
+                // Stay on the triangle Embree found (rounding can step just outside it).
+                u = u64.clamp(0.0, 1.0);
+                v = v64.clamp(0.0, 1.0 - u);
+                t = t64;
+            }
+        }
         let (shading_normal, dn_du, dn_dv) = match &mesh.normals {
             None => (geometric_normal, DVec3::ZERO, DVec3::ZERO),
             Some(normals) => {
@@ -261,7 +290,7 @@ impl Scene {
             }
         };
         Hit {
-            t: t as f64,
+            t,
             geom_id,
             prim_id,
             u,

@@ -1,0 +1,378 @@
+//! Photon tracing, photon maps and the photon-differential estimate: kernel normalisation,
+//! irradiance against an analytic point light, differentials against finite differences through
+//! the glass sphere, path classes, thread independence, and the caustic's energy.
+
+use glam::DVec3;
+use photondiff::differential::RayDifferential;
+use photondiff::embree::{self, Device};
+use photondiff::emission::{Emission, Emitter};
+use photondiff::estimate::{
+    photon_kernel, GatherCounts, GatherQuery, PhotonDifferentialEstimate, RadianceEstimator,
+};
+use photondiff::footprint::{footprint, tangent_frame, FootprintLimits, Guards};
+use photondiff::photon_map::{PathClass, Photon, PhotonMap};
+use photondiff::photon_trace::{PhotonOptions, PhotonTracer, StopRule, TracedPhoton};
+use photondiff::rng::Rng;
+use photondiff::scene::{Material, Scene};
+use photondiff::scene_file::{load_scene, parse_scene};
+use std::f64::consts::PI;
+use std::path::Path;
+
+fn canonical() -> Scene {
+    load_scene(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    )))
+    .unwrap()
+}
+
+fn hidden() -> indicatif::ProgressBar {
+    indicatif::ProgressBar::hidden()
+}
+
+#[test]
+fn one_photons_kernel_integrates_to_its_power() {
+    let n = DVec3::new(0.3, 1.0, 0.2).normalize();
+    let (t1, t2) = tangent_frame(n);
+    // A sheared, anisotropic footprint.
+    let a = t1 * 0.04 + t2 * 0.01;
+    let b = t1 * -0.015 + t2 * 0.02;
+    let limits = FootprintLimits {
+        min_radius: 1e-6,
+        max_radius: 1.0,
+        max_anisotropy: 100.0,
+    };
+    let f = footprint(a, b, n, &limits, 0.01, &mut Guards::default());
+    let centre = DVec3::new(1.0, 2.0, 3.0);
+    let power = DVec3::new(0.5, 1.0, 2.0);
+    let photon = Photon::new(centre, n, -n, power, &f);
+    // Midpoint rule over the tangent plane, fine enough for 0.5%.
+    let (steps, half) = (600, 0.06);
+    let h = 2.0 * half / steps as f64;
+    let mut sum = DVec3::ZERO;
+    for i in 0..steps {
+        for j in 0..steps {
+            let s = -half + (i as f64 + 0.5) * h;
+            let t = -half + (j as f64 + 0.5) * h;
+            let x = centre + t1 * s + t2 * t;
+            if let Some(c) = photon_kernel(&photon, (x - centre).as_vec3(), n.as_vec3()) {
+                sum += c.as_dvec3() * h * h;
+            }
+        }
+    }
+    for (got, want) in sum.to_array().iter().zip(power.to_array()) {
+        assert!((got - want).abs() < 0.005 * want, "{got} vs {want}");
+    }
+}
+
+const PLANE: &str = r#"
+[camera]
+eye = [0.0, 5.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 40.0
+width = 16
+height = 16
+
+[materials.white]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[[lights]]
+type = "point"
+position = [0.0, 2.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+
+[[shapes]]
+type = "quad"
+corner = [-20.0, 0.0, 20.0]
+edge_u = [40.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -40.0]
+material = "white"
+"#;
+
+#[test]
+fn photon_differential_irradiance_matches_a_point_light() {
+    let scene = parse_scene(PLANE, Path::new(".")).unwrap();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    // The estimate's noise is set by the number of footprints over a point (the overlap), its
+    // blur by the footprints' size: 800,000 photons at overlap 128 give footprints about 0.05
+    // across under the light and about 130 of them over each point.
+    let options = PhotonOptions {
+        global_photons: 800_000,
+        overlap: 128.0,
+        ..PhotonOptions::default()
+    };
+    let tracer = PhotonTracer::new(&scene, &embree, &options);
+    let emitter = Emitter::global(&scene, options.global_photons, options.overlap, 1);
+    let (map, counts) = tracer.build_map(
+        &emitter,
+        PathClass::Direct,
+        StopRule::Emitted(800_000),
+        &hidden(),
+    );
+    // The plane's share of the sphere of directions: a square of half-side a at distance h
+    // subtends 4 asin(a^2 / (a^2 + h^2)).
+    let fraction = 4.0 * (400.0f64 / 404.0).asin() / (4.0 * PI);
+    let expected = 800_000.0 * fraction;
+    assert!(
+        (counts.stored as f64 / expected - 1.0).abs() < 0.002,
+        "{} vs {expected}",
+        counts.stored
+    );
+    let estimate = PhotonDifferentialEstimate { map: &map };
+    let mut gathers = GatherCounts::default();
+    let mut worst: f64 = 0.0;
+    for i in 0..9 {
+        for j in 0..9 {
+            let x = DVec3::new(-2.0 + 0.5 * i as f64, 0.0, -2.0 + 0.5 * j as f64);
+            let d2 = x.length_squared() + 4.0;
+            let analytic = 10.0 * (2.0 / d2.sqrt()) / d2;
+            // Albedo pi turns the reflected radiance (albedo / pi) E into the irradiance E.
+            let query = GatherQuery {
+                position: x,
+                normal: DVec3::Y,
+                albedo: DVec3::splat(PI),
+                footprint: [DVec3::ZERO; 2],
+            };
+            let e = estimate.radiance(&query, &mut gathers);
+            eprintln!("{x:?} {:.4}", e.x / analytic - 1.0);
+            for c in e.to_array() {
+                worst = worst.max((c / analytic - 1.0).abs());
+            }
+        }
+    }
+    assert!(worst < 0.03, "worst relative error {worst}");
+    assert!(gathers.photons_used > 81 * 10);
+}
+
+/// A point-light emission along `normalize(d0 + u c + v e)`, with its exact direction differentials.
+fn emission(origin: DVec3, d0: DVec3, c: DVec3, e: DVec3, u: f64, v: f64) -> Emission {
+    let d = d0 + c * u + e * v;
+    let len = d.length();
+    let unit = d / len;
+    let dd = |w: DVec3| (w - unit * unit.dot(w)) / len;
+    let mut ray = RayDifferential::new(origin, unit);
+    ray.dd = [dd(c), dd(e)];
+    Emission {
+        ray,
+        power: DVec3::ONE,
+    }
+}
+
+fn trace_caustic(tracer: &PhotonTracer, e: Emission, seed: u64) -> Option<TracedPhoton> {
+    let mut out = Vec::new();
+    tracer.trace(e, PathClass::Caustic, &mut Rng::new(seed, 0), &mut out);
+    out.first().copied()
+}
+
+#[test]
+fn refracted_photon_differentials_match_finite_differences_of_neighbours() {
+    let scene = canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let options = PhotonOptions::default();
+    let tracer = PhotonTracer::new(&scene, &embree, &options);
+    let light = DVec3::new(-4.0, 4.0, -1.0);
+    let axis = (DVec3::new(0.0, 1.0, 0.0) - light).normalize();
+    let (t1, t2) = tangent_frame(axis);
+    let (c, e) = (t1 * 0.01, t2 * 0.01);
+    let h = 1e-5;
+    let mut checked = 0;
+    for (k, offset) in [
+        (0.05, 0.02),
+        (-0.08, 0.06),
+        (0.1, -0.1),
+        (0.0, 0.13),
+        (-0.12, -0.04),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let d0 = axis + t1 * offset.0 + t2 * offset.1;
+        // The same random stream for the photon and its neighbours: the same Fresnel choices.
+        for seed in 0..8u64 {
+            let seed = seed + 100 * k as u64;
+            let Some(centre) = trace_caustic(&tracer, emission(light, d0, c, e, 0.0, 0.0), seed)
+            else {
+                continue;
+            };
+            // Straight through the glass (in, out), onto the floor.
+            if centre.specular_bounces != 2 {
+                continue;
+            }
+            for (du, dv, axis_k) in [(h, 0.0, 0), (0.0, h, 1)] {
+                let plus = trace_caustic(&tracer, emission(light, d0, c, e, du, dv), seed).unwrap();
+                let minus =
+                    trace_caustic(&tracer, emission(light, d0, c, e, -du, -dv), seed).unwrap();
+                assert_eq!(plus.specular_bounces, 2);
+                assert_eq!(minus.specular_bounces, 2);
+                let fd = (plus.ray.p - minus.ray.p) / (2.0 * h);
+                let dp = centre.ray.dp[axis_k];
+                assert!(
+                    (fd - dp).length() < 1e-3 * fd.length(),
+                    "direction {k}: differential {dp:?}, finite difference {fd:?}"
+                );
+            }
+            checked += 1;
+            break;
+        }
+    }
+    assert!(checked >= 4, "only {checked} photons went straight through");
+}
+
+fn caustic_map(scene: &Scene, embree: &embree::Scene, threads: usize, photons: usize) -> PhotonMap {
+    let options = PhotonOptions {
+        caustic_photons: photons,
+        ..PhotonOptions::default()
+    };
+    let tracer = PhotonTracer::new(scene, embree, &options);
+    let emitter = Emitter::caustic(scene, photons, options.overlap, options.seed);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    pool.install(|| {
+        tracer
+            .build_map(
+                &emitter,
+                PathClass::Caustic,
+                StopRule::Stored(photons),
+                &hidden(),
+            )
+            .0
+    })
+}
+
+#[test]
+fn caustic_map_holds_only_specular_then_diffuse_paths_and_ignores_threads() {
+    let scene = canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let one = caustic_map(&scene, &embree, 1, 3000);
+    let two = caustic_map(&scene, &embree, 2, 3000);
+    assert_eq!(one.len(), 3000);
+    assert!(
+        one.photons == two.photons,
+        "maps differ between 1 and 2 threads"
+    );
+    assert_eq!(one.emitted, two.emitted);
+    // Refracted light lands in the sphere's shadow, which direct light cannot reach; only
+    // light reflected off the outside (a few percent: Fresnel at grazing angles) lands elsewhere.
+    let light = DVec3::new(-4.0, 4.0, -1.0);
+    let in_shadow = one
+        .photons
+        .iter()
+        .filter(|p| {
+            let x = p.position.as_dvec3();
+            let d = (x - light).normalize();
+            let oc = light - DVec3::new(0.0, 1.0, 0.0);
+            let b = oc.dot(d);
+            b * b - (oc.length_squared() - 1.0) > 0.0
+        })
+        .count();
+    assert!(
+        in_shadow as f64 > 0.85 * one.len() as f64,
+        "{in_shadow} of {}",
+        one.len()
+    );
+    // The tracer's classes: caustic photons have one or more specular bounces and no diffuse one.
+    let options = PhotonOptions::default();
+    let tracer = PhotonTracer::new(&scene, &embree, &options);
+    let emitter = Emitter::caustic(&scene, 1000, options.overlap, 0);
+    for i in 0..1000 {
+        let mut rng = Rng::new(5, i);
+        let mut out = Vec::new();
+        if let Some(e) = emitter.emit(i, &mut rng) {
+            tracer.trace(e, PathClass::Caustic, &mut rng, &mut out);
+        }
+        for t in out {
+            assert!(t.specular_bounces >= 1 && t.diffuse_bounces == 0, "{t:?}");
+        }
+    }
+    // With a diffuse sphere there is no caustic at all.
+    let mut matte = scene.clone();
+    matte.meshes[1].material = Material::Diffuse {
+        albedo: DVec3::splat(0.5),
+    };
+    let matte_embree = matte.build_embree(&device).unwrap();
+    assert!(caustic_map(&matte, &matte_embree, 2, 100).is_empty());
+}
+
+/// The power reaching the floor quad of the canonical scene through the exact glass sphere,
+/// following every specular branch with its Fresnel weight, for unit intensity along `d`.
+fn transmitted_fraction(origin: DVec3, d: DVec3, inside: bool, depth: u32) -> f64 {
+    const C: DVec3 = DVec3::new(0.0, 1.0, 0.0);
+    if depth > 16 {
+        return 0.0;
+    }
+    let oc = origin - C;
+    let b = oc.dot(d);
+    let disc = b * b - (oc.length_squared() - 1.0);
+    let t_sphere = if disc > 0.0 {
+        [-b - disc.sqrt(), -b + disc.sqrt()]
+            .into_iter()
+            .find(|&t| t > 1e-9)
+    } else {
+        None
+    };
+    let t_floor = (d.y < 0.0).then(|| -origin.y / d.y).filter(|&t| t > 1e-9);
+    match (t_sphere, t_floor) {
+        (Some(ts), tf) if tf.is_none_or(|tf| ts < tf) => {
+            let p = origin + d * ts;
+            let n_out = p - C;
+            let n = if inside { -n_out } else { n_out };
+            let cos_i = -d.dot(n);
+            let (n1, n2) = if inside { (1.5, 1.0) } else { (1.0, 1.5) };
+            let f = photondiff::differential::fresnel_dielectric(cos_i, n1, n2);
+            let r = d - n * (2.0 * d.dot(n));
+            let mut total = f * transmitted_fraction(p, r, inside, depth + 1);
+            if f < 1.0 {
+                let eta = n1 / n2;
+                let k = 1.0 - eta * eta * (1.0 - cos_i * cos_i);
+                let t = (d * eta + n * (eta * cos_i - k.sqrt())).normalize();
+                total += (1.0 - f) * transmitted_fraction(p, t, !inside, depth + 1);
+            }
+            total
+        }
+        (_, Some(tf)) if depth > 0 => {
+            let p = origin + d * tf;
+            f64::from(u8::from(p.x.abs() <= 6.0 && p.z.abs() <= 6.0))
+        }
+        _ => 0.0,
+    }
+}
+
+#[test]
+fn caustic_map_power_matches_an_independent_integration() {
+    let scene = canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let map = caustic_map(&scene, &embree, 2, 20_000);
+    let stored = map.total_power().x;
+
+    // Midpoint rule over the cone of directions to the sphere, uniform in solid angle.
+    let light = DVec3::new(-4.0, 4.0, -1.0);
+    let to = DVec3::new(0.0, 1.0, 0.0) - light;
+    let cos_max = (1.0 - 1.0 / to.length_squared()).sqrt();
+    let axis = to.normalize();
+    let (t1, t2) = tangent_frame(axis);
+    let n = 500;
+    let mut sum = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            let cos = 1.0 - (i as f64 + 0.5) / n as f64 * (1.0 - cos_max);
+            let sin = (1.0 - cos * cos).sqrt();
+            let phi = 2.0 * PI * (j as f64 + 0.5) / n as f64;
+            let d = axis * cos + t1 * (sin * phi.cos()) + t2 * (sin * phi.sin());
+            sum += transmitted_fraction(light, d, false, 0);
+        }
+    }
+    let omega = 2.0 * PI * (1.0 - cos_max);
+    let expected = 60.0 * omega * sum / (n * n) as f64;
+    assert!(
+        (stored / expected - 1.0).abs() < 0.02,
+        "caustic map {stored} W, independent integration {expected} W"
+    );
+}
