@@ -110,11 +110,19 @@ pub struct PhotonDifferentialEstimate<'a> {
     pub map: &'a PhotonMap,
 }
 
+/// Whether photon `p`, at offset `v = x - x_p` from a query of normal `n_x`, lies on the query's
+/// surface: facing the same way, and off the photon's tangent plane by at most a tenth of its
+/// radius. Shared by every footprint-based estimator.
+#[inline]
+pub fn on_query_surface(p: &crate::photon_map::Photon, v: Vec3, n_x: Vec3) -> bool {
+    same_side(p.normal, n_x) && p.normal.dot(v).abs() <= 0.1 * p.radius
+}
+
 /// `Phi_p / A_p K(|M_p v|)` for a photon at offset `v = x - x_p`, or `None` outside its
-/// support or on the wrong side. Shared by every footprint-based estimator.
+/// support or on the wrong side.
 #[inline]
 pub fn photon_kernel(p: &crate::photon_map::Photon, v: Vec3, n_x: Vec3) -> Option<Vec3> {
-    if !same_side(p.normal, n_x) || p.normal.dot(v).abs() > 0.1 * p.radius {
+    if !on_query_surface(p, v, n_x) {
         return None;
     }
     let s0 = p.m[0].dot(v);

@@ -7,6 +7,7 @@
 //! ([`stats`]), driven by [`render`].
 
 pub mod camera;
+pub mod coplanar;
 pub mod differential;
 pub mod direct;
 pub mod embree;
@@ -16,8 +17,10 @@ pub mod film;
 pub mod footprint;
 pub mod lighting;
 pub mod mesh_io;
+pub mod multisampled;
 pub mod photon_map;
 pub mod photon_trace;
+pub mod polygon;
 pub mod progress;
 pub mod render;
 pub mod rng;

@@ -1,9 +1,11 @@
 //! The photon pass of a render: traces the caustic and global maps and picks the estimator the
 //! rendering loop calls at diffuse hits.
 
+use crate::coplanar::CoplanarEstimate;
 use crate::embree;
 use crate::emission::Emitter;
 use crate::estimate::{JensenEstimate, PhotonDifferentialEstimate, RadianceEstimator};
+use crate::multisampled::MultiSampledEstimate;
 use crate::photon_map::{PathClass, PhotonMap};
 use crate::photon_trace::{PhotonOptions, PhotonTracer, StopRule};
 use crate::scene::Scene;
@@ -18,6 +20,27 @@ pub enum EstimatorKind {
     Jensen,
     /// The photon-differential estimate: each photon's own footprint (Schjoth et al.).
     Pd,
+    /// Coplanar intersection-weighted photon differentials: the view footprint intersected with
+    /// each photon's footprint (Pedersen).
+    Coplanar,
+    /// Multi-sampled photon differentials: each kernel averaged over N x N points of the view
+    /// footprint (Pedersen).
+    Multisampled,
+}
+
+/// How the photon maps are estimated.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct EstimatorSettings {
+    /// Which estimate.
+    pub kind: EstimatorKind,
+    /// Nearest photons per `jensen` estimate.
+    pub k: usize,
+    /// Largest `jensen` gather radius.
+    pub max_radius: f64,
+    /// Sample grid side of the `multisampled` estimate (1 to 32).
+    pub ms_grid: u32,
+    /// Vertices of the polygon standing for a photon footprint in the `coplanar` estimate.
+    pub ellipse_vertices: usize,
 }
 
 /// The caustic and global photon maps of a scene.
@@ -86,29 +109,28 @@ pub fn trace_photon_maps(
 }
 
 impl PhotonMaps {
-    /// The estimators of `kind` over both maps; `k` and `max_radius` configure the regular
-    /// estimate.
-    pub fn estimators(
-        &self,
-        kind: EstimatorKind,
-        k: usize,
-        max_radius: f64,
-    ) -> Vec<Box<dyn RadianceEstimator + '_>> {
-        let maps = [&self.caustic, &self.global];
-        match kind {
-            EstimatorKind::Direct => Vec::new(),
-            EstimatorKind::Jensen => maps
-                .into_iter()
-                .map(|map| {
-                    Box::new(JensenEstimate { map, k, max_radius }) as Box<dyn RadianceEstimator>
+    /// The estimators over both maps (none for [`EstimatorKind::Direct`]).
+    pub fn estimators(&self, settings: &EstimatorSettings) -> Vec<Box<dyn RadianceEstimator + '_>> {
+        [&self.caustic, &self.global]
+            .into_iter()
+            .filter_map(|map| -> Option<Box<dyn RadianceEstimator>> {
+                Some(match settings.kind {
+                    EstimatorKind::Direct => return None,
+                    EstimatorKind::Jensen => Box::new(JensenEstimate {
+                        map,
+                        k: settings.k,
+                        max_radius: settings.max_radius,
+                    }),
+                    EstimatorKind::Pd => Box::new(PhotonDifferentialEstimate { map }),
+                    EstimatorKind::Coplanar => Box::new(CoplanarEstimate {
+                        map,
+                        ellipse_vertices: settings.ellipse_vertices,
+                    }),
+                    EstimatorKind::Multisampled => {
+                        Box::new(MultiSampledEstimate::new(map, settings.ms_grid))
+                    }
                 })
-                .collect(),
-            EstimatorKind::Pd => maps
-                .into_iter()
-                .map(|map| {
-                    Box::new(PhotonDifferentialEstimate { map }) as Box<dyn RadianceEstimator>
-                })
-                .collect(),
-        }
+            })
+            .collect()
     }
 }

@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use photondiff::embree::Device;
-use photondiff::lighting::{trace_photon_maps, EstimatorKind};
+use photondiff::lighting::{trace_photon_maps, EstimatorKind, EstimatorSettings};
 use photondiff::photon_trace::PhotonOptions;
 use photondiff::render::{render, RenderOptions};
 use photondiff::scene_file::load_scene;
@@ -59,7 +59,9 @@ struct RenderArgs {
     #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
     area_samples: u32,
     /// Radiance estimate of the photon maps: `direct` (no photon maps, direct light only),
-    /// `jensen` (k nearest photons) or `pd` (photon differentials).
+    /// `jensen` (k nearest photons), `pd` (photon differentials), `coplanar` (photon
+    /// differentials weighted by their intersection with the view footprint) or `multisampled`
+    /// (photon differentials averaged over N x N points of the view footprint).
     #[arg(long, value_enum, default_value_t = EstimatorKind::Pd)]
     estimator: EstimatorKind,
     /// Global photons: emissions traced for the global map (indirect light).
@@ -71,7 +73,13 @@ struct RenderArgs {
     /// Nearest photons per regular (jensen) estimate.
     #[arg(long, value_name = "N", default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     k: u32,
-    /// Photon footprint size, as the expected number of footprints covering a point (pd).
+    /// Sample grid side N of the multisampled estimate (N x N points per view footprint).
+    #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=32))]
+    ms_grid: u32,
+    /// Vertices of the polygon standing for a photon's elliptical footprint (coplanar).
+    #[arg(long, value_name = "N", default_value_t = 16, value_parser = clap::value_parser!(u32).range(3..=1024))]
+    coplanar_vertices: u32,
+    /// Photon footprint size, as the expected number of footprints covering a point.
     #[arg(long, value_name = "X", default_value_t = 32.0)]
     overlap: f64,
     /// No progress bar and no statistics summary.
@@ -141,10 +149,16 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
             &mut stats,
         )?),
     };
-    let max_radius = photon_options.limits(&scene).max_radius;
+    let settings = EstimatorSettings {
+        kind: args.estimator,
+        k: args.k as usize,
+        max_radius: photon_options.limits(&scene).max_radius,
+        ms_grid: args.ms_grid,
+        ellipse_vertices: args.coplanar_vertices as usize,
+    };
     let estimators = maps
         .as_ref()
-        .map(|m| m.estimators(args.estimator, args.k as usize, max_radius))
+        .map(|m| m.estimators(&settings))
         .unwrap_or_default();
     let refs: Vec<&dyn photondiff::estimate::RadianceEstimator> =
         estimators.iter().map(|e| e.as_ref()).collect();
@@ -185,6 +199,11 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
             args.caustic_photons.to_string(),
         ),
         ("photondiff/k".to_string(), args.k.to_string()),
+        ("photondiff/ms_grid".to_string(), args.ms_grid.to_string()),
+        (
+            "photondiff/coplanar_vertices".to_string(),
+            args.coplanar_vertices.to_string(),
+        ),
         ("photondiff/overlap".to_string(), args.overlap.to_string()),
         ("photondiff/seed".to_string(), args.seed.to_string()),
         (

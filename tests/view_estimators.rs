@@ -1,0 +1,270 @@
+//! The view footprint in the estimate: multi-sampled and coplanar intersection-weighted photon
+//! differentials against the photon-differential estimate, polygon intersection properties, and
+//! finite, non-negative images from every estimator on the canonical scene.
+
+use glam::{DVec2, DVec3};
+use photondiff::camera::Camera;
+use photondiff::coplanar::CoplanarEstimate;
+use photondiff::embree::{Device, Ray};
+use photondiff::emission::Emitter;
+use photondiff::estimate::{
+    GatherCounts, GatherQuery, PhotonDifferentialEstimate, RadianceEstimator,
+};
+use photondiff::lighting::{trace_photon_maps, EstimatorKind, EstimatorSettings};
+use photondiff::multisampled::MultiSampledEstimate;
+use photondiff::photon_map::{PathClass, PhotonMap};
+use photondiff::photon_trace::{PhotonOptions, PhotonTracer, StopRule};
+use photondiff::polygon::{area_centroid, convex_hull, intersect_convex};
+use photondiff::render::{render, RenderOptions};
+use photondiff::scene::Scene;
+use photondiff::scene_file::load_scene;
+use photondiff::stats::Stats;
+use photondiff::surface::transfer_to;
+use proptest::prelude::*;
+use std::path::Path;
+
+fn canonical() -> Scene {
+    load_scene(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    )))
+    .unwrap()
+}
+
+/// The canonical caustic map, and gather queries at floor pixels in and around the caustic with
+/// their view footprints (scaled by `footprint_scale`).
+fn caustic_queries(footprint_scale: f64) -> (PhotonMap, Vec<GatherQuery>) {
+    let scene = canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let options = PhotonOptions {
+        caustic_photons: 5000,
+        ..PhotonOptions::default()
+    };
+    let tracer = PhotonTracer::new(&scene, &embree, &options);
+    let emitter = Emitter::caustic(&scene, 5000, options.overlap, 0);
+    let (map, _) = tracer.build_map(
+        &emitter,
+        PathClass::Caustic,
+        StopRule::Stored(5000),
+        &indicatif::ProgressBar::hidden(),
+    );
+    let camera = &scene.camera;
+    let mut queries = Vec::new();
+    for y in (250..330).step_by(7) {
+        for x in (330..450).step_by(9) {
+            let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
+            let hit = embree.intersect(&Ray::new(ray.p, ray.d)).unwrap();
+            if hit.geom_id != 0 {
+                continue; // the sphere
+            }
+            let at = transfer_to(&ray, &hit);
+            queries.push(GatherQuery {
+                position: hit.position,
+                normal: DVec3::Y,
+                albedo: DVec3::splat(0.75),
+                footprint: at.dp.map(|f| f * footprint_scale),
+            });
+        }
+    }
+    assert!(queries.len() > 100);
+    (map, queries)
+}
+
+#[test]
+fn multisampled_with_one_sample_equals_the_photon_differential_estimate() {
+    let (map, queries) = caustic_queries(1.0);
+    let pd = PhotonDifferentialEstimate { map: &map };
+    let ms = MultiSampledEstimate::new(&map, 1);
+    let mut c = GatherCounts::default();
+    let mut lit = 0;
+    for q in &queries {
+        let (a, b) = (pd.radiance(q, &mut c), ms.radiance(q, &mut c));
+        assert!(
+            (a - b).length() <= 1e-5 * a.length().max(1e-6),
+            "{a} vs {b}"
+        );
+        lit += usize::from(a.x > 0.0);
+    }
+    assert!(
+        lit > queries.len() / 4,
+        "only {lit} of {} queries lit",
+        queries.len()
+    );
+}
+
+/// The pixel-area average of the photon-differential estimate, by brute force: `n x n` point
+/// estimates over the view footprint.
+fn brute_force_average(pd: &PhotonDifferentialEstimate, q: &GatherQuery, n: usize) -> DVec3 {
+    let mut sum = DVec3::ZERO;
+    let mut c = GatherCounts::default();
+    for i in 0..n {
+        for j in 0..n {
+            let a = (i as f64 + 0.5) / n as f64 - 0.5;
+            let b = (j as f64 + 0.5) / n as f64 - 0.5;
+            let point = GatherQuery {
+                position: q.position + q.footprint[0] * a + q.footprint[1] * b,
+                ..*q
+            };
+            sum += pd.radiance(&point, &mut c);
+        }
+    }
+    sum / (n * n) as f64
+}
+
+#[test]
+fn multisampled_converges_to_the_pixel_average_of_the_photon_differential_estimate() {
+    // Footprints four pixels wide, so that they span many photon footprints.
+    let (map, queries) = caustic_queries(4.0);
+    let pd = PhotonDifferentialEstimate { map: &map };
+    let mut c = GatherCounts::default();
+    let mut errors = Vec::new();
+    for grid in [1, 4, 32] {
+        let ms = MultiSampledEstimate::new(&map, grid);
+        let (mut err2, mut ref2) = (0.0, 0.0);
+        for q in queries.iter().step_by(3) {
+            let reference = brute_force_average(&pd, q, 96).x;
+            err2 += (ms.radiance(q, &mut c).x - reference).powi(2);
+            ref2 += reference * reference;
+        }
+        errors.push((err2 / ref2).sqrt());
+    }
+    assert!(
+        errors[0] > 0.05,
+        "the test footprints are too small to tell: {errors:?}"
+    );
+    assert!(errors[1] < errors[0] && errors[2] < errors[1], "{errors:?}");
+    assert!(errors[2] < 0.01, "{errors:?}");
+}
+
+#[test]
+fn coplanar_with_a_tiny_view_footprint_equals_the_photon_differential_estimate() {
+    let (map, queries) = caustic_queries(1e-4);
+    let pd = PhotonDifferentialEstimate { map: &map };
+    let coplanar = CoplanarEstimate {
+        map: &map,
+        ellipse_vertices: 64,
+    };
+    let mut c = GatherCounts::default();
+    for q in &queries {
+        let (a, b) = (pd.radiance(q, &mut c), coplanar.radiance(q, &mut c));
+        // The polygon is inscribed in the ellipse: photons near their rim may drop out.
+        assert!((a - b).length() <= 0.02 * a.length() + 1e-9, "{a} vs {b}");
+    }
+}
+
+/// A convex polygon from random points (their hull), possibly degenerate.
+fn polygon() -> impl Strategy<Value = Vec<DVec2>> {
+    prop::collection::vec((-10.0f64..10.0, -10.0f64..10.0), 1..12).prop_map(|pts| {
+        convex_hull(
+            &pts.into_iter()
+                .map(|(x, y)| DVec2::new(x, y))
+                .collect::<Vec<_>>(),
+        )
+    })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(2000))]
+
+    #[test]
+    fn intersection_area_is_bounded_and_symmetric(a in polygon(), b in polygon()) {
+        let ab = intersect_convex(&a, &b);
+        let ba = intersect_convex(&b, &a);
+        let (area_ab, c_ab) = area_centroid(&ab);
+        let (area_ba, c_ba) = area_centroid(&ba);
+        let (area_a, _) = area_centroid(&a);
+        let (area_b, _) = area_centroid(&b);
+        prop_assert!(area_ab.is_finite() && c_ab.is_finite() && c_ba.is_finite());
+        prop_assert!(ab.iter().chain(&ba).all(|p| p.is_finite()));
+        let tol = 1e-9 * (1.0 + area_a + area_b);
+        prop_assert!(area_ab <= area_a.min(area_b) + tol, "{} > min({}, {})", area_ab, area_a, area_b);
+        prop_assert!((area_ab - area_ba).abs() <= tol);
+        if area_ab > 1e-6 {
+            prop_assert!((c_ab - c_ba).length() <= 1e-6 * (1.0 + c_ab.length()));
+        }
+    }
+
+    #[test]
+    fn a_polygon_inside_another_is_the_intersection(
+        a in polygon(),
+        t in 0.0f64..1.0,
+        pick in 0usize..12,
+        shrink in 0.05f64..1.0,
+    ) {
+        prop_assume!(a.len() >= 3);
+        let (area_a, centroid) = area_centroid(&a);
+        prop_assume!(area_a > 1e-6);
+        // Shrink `a` towards a point inside it: the copy lies inside `a`.
+        let anchor = centroid + (a[pick % a.len()] - centroid) * t * 0.99;
+        let inner: Vec<DVec2> = a.iter().map(|&p| anchor + (p - anchor) * shrink).collect();
+        let (area_inner, c_inner) = area_centroid(&inner);
+        for (x, y) in [(&a, &inner), (&inner, &a)] {
+            let (area, c) = area_centroid(&intersect_convex(x, y));
+            prop_assert!((area - area_inner).abs() <= 1e-9 * (1.0 + area_a), "{} vs {}", area, area_inner);
+            prop_assert!((c - c_inner).length() <= 1e-6 * (1.0 + c_inner.length()));
+        }
+    }
+
+    #[test]
+    fn degenerate_and_disjoint_polygons_give_zero(a in polygon(), dx in 21.0f64..100.0) {
+        let moved: Vec<DVec2> = a.iter().map(|p| *p + DVec2::new(dx, 0.0)).collect();
+        prop_assert_eq!(area_centroid(&intersect_convex(&a, &moved)).0, 0.0);
+        // A segment (zero area) against anything.
+        let segment = [DVec2::new(-1.0, -1.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 0.0)];
+        let (area, c) = area_centroid(&intersect_convex(&a, &segment));
+        prop_assert!(area == 0.0 && c.is_finite());
+    }
+}
+
+#[test]
+fn no_estimator_produces_nan_infinite_or_negative_radiance() {
+    let mut scene = canonical();
+    let c = &scene.camera;
+    let fov = 2.0 * c.tan_half_fov.atan().to_degrees();
+    scene.camera = Camera::look_at(c.eye, c.eye + c.forward, c.up, fov, 160, 120).unwrap();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let mut stats = Stats::default();
+    let options = PhotonOptions::default();
+    let maps = trace_photon_maps(&scene, &embree, &options, 0, false, &mut stats).unwrap();
+    for kind in [
+        EstimatorKind::Direct,
+        EstimatorKind::Jensen,
+        EstimatorKind::Pd,
+        EstimatorKind::Coplanar,
+        EstimatorKind::Multisampled,
+    ] {
+        let settings = EstimatorSettings {
+            kind,
+            k: 50,
+            max_radius: options.limits(&scene).max_radius,
+            ms_grid: 8,
+            ellipse_vertices: 16,
+        };
+        let estimators = maps.estimators(&settings);
+        let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
+        for grid in [1, 2] {
+            let film = render(
+                &scene,
+                &embree,
+                &refs,
+                &RenderOptions::default().with_view_grid(grid),
+                &mut stats,
+            )
+            .unwrap();
+            let bad = film
+                .pixels
+                .iter()
+                .filter(|p| !p.is_finite() || p.min_element() < 0.0)
+                .count();
+            assert_eq!(bad, 0, "{kind:?}, view grid {grid}: {bad} bad pixels");
+            let brightest = film
+                .pixels
+                .iter()
+                .map(|p| p.max_element())
+                .fold(0.0, f64::max);
+            assert!(brightest > 0.1, "{kind:?}: the image is black");
+        }
+    }
+}
