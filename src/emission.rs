@@ -121,6 +121,7 @@ pub struct Emitter {
     sources: Vec<Source>,
     cdf: Vec<f64>,
     shift: [f64; 2],
+    random: bool,
 }
 
 impl Emitter {
@@ -235,7 +236,16 @@ impl Emitter {
             sources,
             cdf,
             shift: [rng.uniform(), rng.uniform()],
+            random: false,
         }
+    }
+
+    /// The same emitter drawing plain random emission samples instead of the low-discrepancy
+    /// sequence: for splatting estimators (the light tracer), where a lattice of emission points
+    /// aliases with the pixel grid into moire patterns.
+    pub fn with_random_samples(mut self) -> Self {
+        self.random = true;
+        self
     }
 
     /// Whether nothing can be emitted (no light, or no target for caustic photons).
@@ -253,7 +263,11 @@ impl Emitter {
             .position(|&c| pick < c)
             .unwrap_or(self.sources.len() - 1);
         let source = &self.sources[k];
-        let (u, v) = r2(index, self.shift);
+        let (u, v) = if self.random {
+            (rng.uniform(), rng.uniform())
+        } else {
+            r2(index, self.shift)
+        };
         match (source.light, source.target) {
             (Light::Point { position, .. } | Light::Spot { position, .. }, None) => {
                 let (axis, cos_max) = match source.light {

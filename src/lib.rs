@@ -16,6 +16,7 @@ pub mod estimate;
 pub mod film;
 pub mod footprint;
 pub mod lighting;
+pub mod lighttrace;
 pub mod mesh_io;
 pub mod multisampled;
 pub mod photon_map;

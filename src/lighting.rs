@@ -26,6 +26,8 @@ pub enum EstimatorKind {
     /// Multi-sampled photon differentials: each kernel averaged over N x N points of the view
     /// footprint (Pedersen).
     Multisampled,
+    /// Not a photon map estimate: the light-tracing reference ([`crate::lighttrace`]).
+    Lighttrace,
 }
 
 /// How the photon maps are estimated.
@@ -115,7 +117,7 @@ impl PhotonMaps {
             .into_iter()
             .filter_map(|map| -> Option<Box<dyn RadianceEstimator>> {
                 Some(match settings.kind {
-                    EstimatorKind::Direct => return None,
+                    EstimatorKind::Direct | EstimatorKind::Lighttrace => return None,
                     EstimatorKind::Jensen => Box::new(JensenEstimate {
                         map,
                         k: settings.k,

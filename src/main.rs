@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 use photondiff::embree::Device;
 use photondiff::lighting::{trace_photon_maps, EstimatorKind, EstimatorSettings};
+use photondiff::lighttrace::{LightTraceOptions, LightTracer};
 use photondiff::photon_trace::PhotonOptions;
 use photondiff::render::{render, RenderOptions};
 use photondiff::scene_file::load_scene;
@@ -61,7 +62,8 @@ struct RenderArgs {
     /// Radiance estimate of the photon maps: `direct` (no photon maps, direct light only),
     /// `jensen` (k nearest photons), `pd` (photon differentials), `coplanar` (photon
     /// differentials weighted by their intersection with the view footprint) or `multisampled`
-    /// (photon differentials averaged over N x N points of the view footprint).
+    /// (photon differentials averaged over N x N points of the view footprint); or
+    /// `lighttrace`, the unbiased light-tracing reference (no photon maps; see --light-paths).
     #[arg(long, value_enum, default_value_t = EstimatorKind::Pd)]
     estimator: EstimatorKind,
     /// Global photons: emissions traced for the global map (indirect light).
@@ -82,6 +84,12 @@ struct RenderArgs {
     /// Photon footprint size, as the expected number of footprints covering a point.
     #[arg(long, value_name = "X", default_value_t = 32.0)]
     overlap: f64,
+    /// Light paths traced by `--estimator lighttrace`.
+    #[arg(long, value_name = "N", default_value_t = 20_000_000)]
+    light_paths: u64,
+    /// Stop `--estimator lighttrace` after this many seconds even if fewer paths are traced.
+    #[arg(long, value_name = "SECONDS")]
+    time_budget: Option<f64>,
     /// No progress bar and no statistics summary.
     #[arg(short, long)]
     quiet: bool,
@@ -138,8 +146,15 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
             args.overlap
         ));
     }
+    if let Some(t) = args.time_budget {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(format!(
+                "--time-budget must be a positive number of seconds, got {t}"
+            ));
+        }
+    }
     let maps = match args.estimator {
-        EstimatorKind::Direct => None,
+        EstimatorKind::Direct | EstimatorKind::Lighttrace => None,
         _ => Some(trace_photon_maps(
             &scene,
             &embree,
@@ -162,7 +177,32 @@ fn run_render(args: &RenderArgs) -> Result<(), String> {
         .unwrap_or_default();
     let refs: Vec<&dyn photondiff::estimate::RadianceEstimator> =
         estimators.iter().map(|e| e.as_ref()).collect();
-    let film = render(&scene, &embree, &refs, &options, &mut stats)?;
+    let film = if args.estimator == EstimatorKind::Lighttrace {
+        let lt_options = LightTraceOptions {
+            paths: args.light_paths,
+            time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
+            seed: args.seed,
+            ..LightTraceOptions::default()
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(args.threads)
+            .build()
+            .map_err(|e| format!("cannot start worker threads: {e}"))?;
+        stats.threads = pool.current_num_threads();
+        let bar = photondiff::progress::bar(options.progress, args.light_paths, "light");
+        let tracer = LightTracer::new(&scene, &embree, &lt_options);
+        let result = stats.time("render", || pool.install(|| tracer.run(&bar)));
+        bar.finish_and_clear();
+        let all: Vec<usize> = (0..result.film.pixels.len())
+            .filter(|&i| result.film.pixels[i].max_element() > 0.0)
+            .collect();
+        stats.light_paths = result.paths;
+        stats.light_rays = result.rays;
+        stats.reference_noise = result.relative_noise(&all);
+        result.film
+    } else {
+        render(&scene, &embree, &refs, &options, &mut stats)?
+    };
 
     let stem = args
         .scene

@@ -57,6 +57,12 @@ pub struct Stats {
     pub photon_maps: Vec<MapStats>,
     /// Photon map gathers.
     pub gathers: GatherCounts,
+    /// Light paths traced by the light-tracing reference.
+    pub light_paths: u64,
+    /// Rays traced by the light-tracing reference (path segments and camera connections).
+    pub light_rays: u64,
+    /// The reference's estimated relative noise over its lit pixels, from its two halves.
+    pub reference_noise: f64,
 }
 
 /// How one photon map was made.
@@ -109,7 +115,7 @@ impl Stats {
             "  rays: {} camera, {} specular, {} shadow, {} invalid\n",
             r.camera, r.specular, r.shadow, self.invalid_rays
         );
-        if render > 0.0 {
+        if render > 0.0 && r.total() > 0 {
             out += &format!(
                 "  {:.2} M rays/s over {} threads ({:.2} M camera rays/s)\n",
                 r.total() as f64 / render / 1e6,
@@ -139,6 +145,12 @@ impl Stats {
                 g.gathers,
                 g.photons_found as f64 / g.gathers as f64,
                 g.photons_used as f64 / g.gathers as f64
+            );
+        }
+        if self.light_paths > 0 {
+            out += &format!(
+                "  light tracing: {} paths, {} rays, estimated relative noise {:.4} over lit pixels\n",
+                self.light_paths, self.light_rays, self.reference_noise
             );
         }
         if self.paths_cut_at_max_depth > 0 {

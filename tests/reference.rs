@@ -1,0 +1,109 @@
+//! The light-tracing reference: its direct light on the floor against the analytic value, its
+//! noise estimate, and its independence of the thread count.
+
+use glam::DVec3;
+use photondiff::camera::Camera;
+use photondiff::embree::Device;
+use photondiff::lighttrace::{LightTraceOptions, LightTracer};
+use photondiff::scene::Scene;
+use photondiff::scene_file::load_scene;
+use std::f64::consts::PI;
+use std::path::Path;
+
+/// The canonical scene at `width x height`.
+fn canonical(width: u32, height: u32) -> Scene {
+    let mut scene = load_scene(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    )))
+    .unwrap();
+    let c = &scene.camera;
+    let fov = 2.0 * c.tan_half_fov.atan().to_degrees();
+    scene.camera = Camera::look_at(c.eye, c.eye + c.forward, c.up, fov, width, height).unwrap();
+    scene
+}
+
+#[test]
+fn light_traced_direct_light_matches_the_analytic_value() {
+    // Without the sphere: with it, light it reflects onto the floor adds about 1% here, which the
+    // analytic direct light leaves out.
+    let mut scene = canonical(80, 60);
+    scene.meshes.truncate(1);
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let options = LightTraceOptions {
+        paths: 12_000_000,
+        seed: 3,
+        ..LightTraceOptions::default()
+    };
+    let tracer = LightTracer::new(&scene, &embree, &options);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let result = pool.install(|| tracer.run(&indicatif::ProgressBar::hidden()));
+    // A block of pixels around the pixel that sees (0, 0, 3).
+    let camera = &scene.camera;
+    let (x, y) = camera.project(DVec3::new(0.0, 0.0, 3.0)).unwrap();
+    let (cx, cy) = (x as u32, y as u32);
+    let light = DVec3::new(-4.0, 4.0, -1.0);
+    let mut pixels = Vec::new();
+    let (mut measured, mut analytic) = (0.0, 0.0);
+    for py in cy.saturating_sub(16)..=(cy + 12).min(camera.height - 1) {
+        for px in cx.saturating_sub(12)..=(cx + 12).min(camera.width - 1) {
+            // The pixel's average of I cos / d^2 * albedo / pi over the floor it sees.
+            let n = 16;
+            let mut value = 0.0;
+            for j in 0..n {
+                for i in 0..n {
+                    let r = camera.ray(
+                        px as f64 + (i as f64 + 0.5) / n as f64,
+                        py as f64 + (j as f64 + 0.5) / n as f64,
+                        1.0,
+                    );
+                    let p = r.p + r.d * (-r.p.y / r.d.y);
+                    let to = light - p;
+                    let d2 = to.length_squared();
+                    value += 60.0 * (to.y / d2.sqrt()) / d2 * 0.75 / PI / (n * n) as f64;
+                }
+            }
+            analytic += value;
+            pixels.push((py * camera.width + px) as usize);
+            measured += result.film.pixel(px, py).x;
+        }
+    }
+    assert!(pixels.len() > 400, "{} pixels", pixels.len());
+    let noise = result.relative_noise(&pixels) / (pixels.len() as f64).sqrt();
+    assert!(noise < 0.004, "the test's reference is too noisy: {noise}");
+    let relative = measured / analytic - 1.0;
+    assert!(
+        relative.abs() < 0.01 + 3.0 * noise,
+        "light traced {measured}, analytic {analytic} ({relative:+.4}, noise {noise:.4})"
+    );
+}
+
+#[test]
+fn light_tracing_ignores_the_thread_count() {
+    let scene = canonical(40, 30);
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let options = LightTraceOptions {
+        paths: 300_000,
+        ..LightTraceOptions::default()
+    };
+    let tracer = LightTracer::new(&scene, &embree, &options);
+    let run = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| tracer.run(&indicatif::ProgressBar::hidden()))
+    };
+    let (one, two) = (run(1), run(2));
+    assert!(
+        one.film == two.film,
+        "the reference differs between 1 and 2 threads"
+    );
+    assert!(one.film.pixels.iter().any(|p| p.x > 0.0));
+    assert!(one.half_a != one.half_b);
+}
