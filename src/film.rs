@@ -55,6 +55,20 @@ impl Film {
             .map_err(|e| format!("{}: cannot write EXR: {e}", path.display()))
     }
 
+    /// Reads the first RGB(A) layer of an EXR file.
+    pub fn read_exr(path: &Path) -> Result<Film, String> {
+        let image = exr::prelude::read_first_rgba_layer_from_file(
+            path,
+            |size, _| Film::new(size.width() as u32, size.height() as u32),
+            |film: &mut Film, pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+                let i = pos.y() * film.width as usize + pos.x();
+                film.pixels[i] = DVec3::new(r as f64, g as f64, b as f64);
+            },
+        )
+        .map_err(|e| format!("{}: cannot read EXR: {e}", path.display()))?;
+        Ok(image.layer_data.channel_data.pixels)
+    }
+
     /// Writes an 8-bit sRGB PNG preview (radiance clamped to [0, 1], no tone mapping beyond that).
     pub fn write_png(&self, path: &Path) -> Result<(), String> {
         let bytes: Vec<u8> = self
@@ -105,6 +119,7 @@ mod tests {
         .unwrap();
         assert_eq!(image.layer_data.channel_data.pixels[4], [0.25, 1.5, 7.0]);
         assert_eq!(image.layer_data.channel_data.pixels[0], [0.0; 3]);
+        assert_eq!(Film::read_exr(&path).unwrap(), film);
     }
 
     #[test]

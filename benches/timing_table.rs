@@ -1,0 +1,119 @@
+//! Reproduces the thesis's timing table (METHOD.md section 5) on the canonical scene, with each
+//! row's error against a light-traced reference.
+//!
+//! Run: `cargo bench --bench timing_table`. Environment: `PHOTONDIFF_REFERENCE_PATHS` (light
+//! paths of the reference, default 1,000,000,000; cached under `out/reference/`),
+//! `PHOTONDIFF_REPEATS` (default 3), `PHOTONDIFF_THREADS` (default: all cores).
+
+use photondiff::embree::Device;
+use photondiff::experiment::Method;
+use photondiff::lighting::trace_photon_maps;
+use photondiff::metrics::{rel_rmse, ssim, Regions};
+use photondiff::photon_trace::PhotonOptions;
+use photondiff::scene_file::load_scene;
+use photondiff::stats::Stats;
+use std::path::Path;
+
+fn env(name: &str, default: u64) -> u64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn median(mut t: Vec<f64>) -> f64 {
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+fn main() -> Result<(), String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = load_scene(&root.join("scenes/caustic-sphere.toml")).map_err(|e| e.to_string())?;
+    let device = Device::new().map_err(|e| e.to_string())?;
+    let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
+    let repeats = env("PHOTONDIFF_REPEATS", 3).max(1) as usize;
+    let threads = env("PHOTONDIFF_THREADS", 0) as usize;
+    let paths = env("PHOTONDIFF_REFERENCE_PATHS", 1_000_000_000);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| e.to_string())?;
+
+    let reference = pool.install(|| {
+        photondiff::reference::load_or_make(
+            &scene,
+            &embree,
+            &root.join("out/reference"),
+            "caustic-sphere",
+            paths,
+            &mut |m| eprintln!("{m}"),
+        )
+    })?;
+    let regions = Regions::new(&scene, &embree, &reference.film);
+
+    // The same photon maps for every method; tracing timed on its own.
+    let options = PhotonOptions::default();
+    let mut trace_times = Vec::new();
+    let mut maps = None;
+    for _ in 0..repeats {
+        let mut stats = Stats::default();
+        maps = Some(trace_photon_maps(
+            &scene, &embree, &options, threads, false, &mut stats,
+        )?);
+        trace_times.push(stats.seconds("trace photons"));
+    }
+    let maps = maps.expect("at least one repetition");
+
+    let rows: Vec<(Method, Option<f64>)> = vec![
+        (Method::regular(1), Some(1.00)),
+        (Method::regular(3), Some(8.88)),
+        (Method::coplanar(), Some(18.42)),
+        (Method::multisampled(8), Some(3.09)),
+        (Method::jensen(1), None),
+        (Method::jensen(3), None),
+        (Method::multisampled(1), None),
+        (Method::multisampled(2), None),
+        (Method::multisampled(4), None),
+        (Method::multisampled(16), None),
+    ];
+    // Methods alternate within each repetition, so that machine noise hits all alike.
+    let mut times = vec![Vec::new(); rows.len()];
+    let mut films = vec![None; rows.len()];
+    for rep in 0..repeats {
+        for (k, (method, _)) in rows.iter().enumerate() {
+            let (film, seconds) = method.render(&scene, &embree, &maps, &options, threads)?;
+            eprintln!(
+                "repetition {}/{repeats}: {} {seconds:.3} s",
+                rep + 1,
+                method.label()
+            );
+            times[k].push(seconds);
+            films[k] = Some(film);
+        }
+    }
+    let base = median(times[0].clone());
+    println!("\n## Timing table: canonical scene, 640 x 480, {} global + {} caustic photon differentials\n",
+        options.global_photons, options.caustic_photons);
+    println!("Photon tracing (shared by every row): {:.3} s (median of {repeats}). Rendering: median of {repeats}, methods alternated, {} threads.", median(trace_times), pool.current_num_threads());
+    println!("Error: relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) against a light-traced reference of {paths} paths, over the floor ({} px), the caustic ({} px: reference > 1.5 x unblocked direct light) and its contour ({} px: the tenth of the caustic with the largest reference gradient); SSIM on sRGB luminance over the whole image.", regions.diffuse.len(), regions.caustic.len(), regions.contour.len());
+    println!("Reference noise (relative, from its two halves): floor {:.4}, caustic {:.4}, contour {:.4}.\n",
+        reference.relative_noise(&regions.diffuse), reference.relative_noise(&regions.caustic), reference.relative_noise(&regions.contour));
+    println!("| method | rendering time (s) | ratio to regular 1x1 | thesis ratio | relRMSE floor | relRMSE caustic | relRMSE contour | SSIM |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (k, (method, thesis)) in rows.iter().enumerate() {
+        let t = median(times[k].clone());
+        let film = films[k].as_ref().expect("rendered");
+        println!(
+            "| {} | {:.3} | {:.2} | {} | {:.4} | {:.4} | {:.4} | {:.4} |",
+            method.label(),
+            t,
+            t / base,
+            thesis.map_or("".to_string(), |r| format!("{r:.2}")),
+            rel_rmse(film, &reference.film, &regions.diffuse),
+            rel_rmse(film, &reference.film, &regions.caustic),
+            rel_rmse(film, &reference.film, &regions.contour),
+            ssim(film, &reference.film),
+        );
+    }
+    Ok(())
+}

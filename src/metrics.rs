@@ -1,0 +1,189 @@
+//! Accuracy against a reference: the image regions the estimators are judged on, the relative
+//! RMS error, and SSIM on tone-mapped images.
+//!
+//! `relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R)` over a region.
+
+use crate::embree::{self, Ray};
+use crate::film::{linear_to_srgb, Film};
+use crate::scene::{Light, Material, Scene};
+use glam::DVec3;
+use std::f64::consts::FRAC_1_PI;
+
+/// The regions of an image where estimators are judged.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Regions {
+    /// Pixels whose centre camera ray first hits a diffuse surface.
+    pub diffuse: Vec<usize>,
+    /// Diffuse pixels where the reference exceeds 1.5 times the direct radiance the point and
+    /// spot lights would give there if nothing blocked them (the caustic).
+    pub caustic: Vec<usize>,
+    /// The tenth of the caustic pixels with the largest reference gradient (its contour).
+    pub contour: Vec<usize>,
+}
+
+/// Radiance the point and spot lights would reflect at a diffuse point `x` (normal `n` facing
+/// the eye, albedo `albedo`) towards the eye if nothing blocked them.
+fn unblocked_direct(scene: &Scene, x: DVec3, n: DVec3, albedo: DVec3) -> DVec3 {
+    let mut sum = DVec3::ZERO;
+    for light in &scene.lights {
+        if let Light::Point { position, .. } | Light::Spot { position, .. } = *light {
+            let to = position - x;
+            let d2 = to.length_squared();
+            let w = to / d2.sqrt();
+            let cos = n.dot(w).max(0.0);
+            sum += light.intensity_towards(-w) * (cos / d2);
+        }
+    }
+    sum * albedo * FRAC_1_PI
+}
+
+impl Regions {
+    /// The regions of `scene`'s image given the `reference`.
+    pub fn new(scene: &Scene, embree: &embree::Scene, reference: &Film) -> Self {
+        let c = &scene.camera;
+        let (w, h) = (c.width as usize, c.height as usize);
+        let mut diffuse = Vec::new();
+        let mut caustic = Vec::new();
+        for y in 0..h {
+            for x in 0..w {
+                let r = c.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
+                let Some(hit) = embree.intersect(&Ray::new(r.p, r.d)) else {
+                    continue;
+                };
+                let Material::Diffuse { albedo } = *scene.material(hit.geom_id) else {
+                    continue;
+                };
+                let i = y * w + x;
+                diffuse.push(i);
+                let n = crate::surface::facing(hit.geometric_normal, r.d);
+                let direct = unblocked_direct(scene, hit.position, n, albedo);
+                let value = reference.pixels[i];
+                if direct.max_element() > 0.0
+                    && (value.x + value.y + value.z) > 1.5 * (direct.x + direct.y + direct.z)
+                {
+                    caustic.push(i);
+                }
+            }
+        }
+        let luminance = |i: usize| {
+            let p = reference.pixels[i];
+            (p.x + p.y + p.z) / 3.0
+        };
+        let mut gradients: Vec<(f64, usize)> = caustic
+            .iter()
+            .map(|&i| {
+                let (x, y) = (i % w, i / w);
+                let gx =
+                    luminance(y * w + (x + 1).min(w - 1)) - luminance(y * w + x.saturating_sub(1));
+                let gy =
+                    luminance((y + 1).min(h - 1) * w + x) - luminance(y.saturating_sub(1) * w + x);
+                ((gx * gx + gy * gy).sqrt(), i)
+            })
+            .collect();
+        gradients.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        let mut contour: Vec<usize> = gradients
+            .iter()
+            .take(caustic.len().div_ceil(10))
+            .map(|g| g.1)
+            .collect();
+        contour.sort_unstable();
+        Regions {
+            diffuse,
+            caustic,
+            contour,
+        }
+    }
+}
+
+/// `sqrt(mean over pixels and channels of (I - R)^2) / mean(R)` over `pixels`.
+pub fn rel_rmse(image: &Film, reference: &Film, pixels: &[usize]) -> f64 {
+    let (mut e2, mut r, mut n) = (0.0, 0.0, 0.0);
+    for &i in pixels {
+        let d = image.pixels[i] - reference.pixels[i];
+        e2 += d.length_squared();
+        let p = reference.pixels[i];
+        r += p.x + p.y + p.z;
+        n += 3.0;
+    }
+    if n == 0.0 || r <= 0.0 {
+        return f64::NAN;
+    }
+    (e2 / n).sqrt() / (r / n)
+}
+
+/// Mean SSIM (Wang et al. 2004; 8 x 8 windows with a stride of 4, the usual constants) between
+/// the sRGB-tone-mapped luminances of two images, in `[-1, 1]`, 1 for identical images.
+pub fn ssim(image: &Film, reference: &Film) -> f64 {
+    let luma = |f: &Film| -> Vec<f64> {
+        f.pixels
+            .iter()
+            .map(|p| {
+                0.2126 * linear_to_srgb(p.x)
+                    + 0.7152 * linear_to_srgb(p.y)
+                    + 0.0722 * linear_to_srgb(p.z)
+            })
+            .collect()
+    };
+    let (a, b) = (luma(image), luma(reference));
+    let (w, h) = (image.width as usize, image.height as usize);
+    let (c1, c2) = ((0.01f64).powi(2), (0.03f64).powi(2));
+    let (mut sum, mut count) = (0.0, 0.0);
+    for y0 in (0..h.saturating_sub(7)).step_by(4) {
+        for x0 in (0..w.saturating_sub(7)).step_by(4) {
+            let (mut ma, mut mb, mut va, mut vb, mut cov) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for y in y0..y0 + 8 {
+                for x in x0..x0 + 8 {
+                    ma += a[y * w + x];
+                    mb += b[y * w + x];
+                }
+            }
+            ma /= 64.0;
+            mb /= 64.0;
+            for y in y0..y0 + 8 {
+                for x in x0..x0 + 8 {
+                    let (da, db) = (a[y * w + x] - ma, b[y * w + x] - mb);
+                    va += da * da;
+                    vb += db * db;
+                    cov += da * db;
+                }
+            }
+            let (va, vb, cov) = (va / 63.0, vb / 63.0, cov / 63.0);
+            sum += ((2.0 * ma * mb + c1) * (2.0 * cov + c2))
+                / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+            count += 1.0;
+        }
+    }
+    if count == 0.0 {
+        1.0
+    } else {
+        sum / count
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn errors_of_known_images() {
+        let mut r = Film::new(16, 16);
+        for (i, p) in r.pixels.iter_mut().enumerate() {
+            *p = DVec3::splat(0.2 + 0.001 * i as f64);
+        }
+        let all: Vec<usize> = (0..256).collect();
+        assert_eq!(rel_rmse(&r, &r, &all), 0.0);
+        assert!((ssim(&r, &r) - 1.0).abs() < 1e-12);
+        let mut i = r.clone();
+        for p in &mut i.pixels {
+            *p *= 1.1;
+        }
+        // A uniform 10% excess: relRMSE = 0.1 * rms(R) / mean(R), a little above 0.1.
+        let e = rel_rmse(&i, &r, &all);
+        assert!(e > 0.1 && e < 0.11, "{e}");
+        let mut noisy = r.clone();
+        for (k, p) in noisy.pixels.iter_mut().enumerate() {
+            *p += DVec3::splat(if k % 2 == 0 { 0.1 } else { -0.1 });
+        }
+        assert!(ssim(&noisy, &r) < 0.9);
+    }
+}
