@@ -37,9 +37,9 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
         counts.gathers += 1;
         let reach = footprint_circumradius(&q.footprint);
-        let radius = self.map.max_radius as f64 + if reach.is_finite() { reach } else { 0.0 };
+        let reach = if reach.is_finite() { reach } else { 0.0 };
         let mut found = Vec::new();
-        self.map.within(q.position, radius, &mut found);
+        self.map.reaching(q.position, reach, &mut found);
         counts.photons_found += found.len() as u64;
         let (t1, t2) = tangent_frame(q.normal);
         let to_2d = |v: DVec3| DVec2::new(v.dot(t1), v.dot(t2));

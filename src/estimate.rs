@@ -135,8 +135,7 @@ impl RadianceEstimator for PhotonDifferentialEstimate<'_> {
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
         counts.gathers += 1;
         let mut found = Vec::new();
-        self.map
-            .within(q.position, self.map.max_radius as f64, &mut found);
+        self.map.reaching(q.position, 0.0, &mut found);
         counts.photons_found += found.len() as u64;
         let x = q.position.as_vec3();
         let n = q.normal.as_vec3();

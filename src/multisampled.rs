@@ -182,10 +182,10 @@ impl RadianceEstimator for MultiSampledEstimate<'_> {
         counts.gathers += 1;
         let f = [q.footprint[0].as_vec3(), q.footprint[1].as_vec3()];
         let reach = footprint_circumradius(&q.footprint);
-        let radius = self.map.max_radius as f64 + if reach.is_finite() { reach } else { 0.0 };
+        let reach = if reach.is_finite() { reach } else { 0.0 };
         SCRATCH.with(|scratch| {
             let scratch = &mut *scratch.borrow_mut();
-            self.map.within(q.position, radius, &mut scratch.found);
+            self.map.reaching(q.position, reach, &mut scratch.found);
             counts.photons_found += scratch.found.len() as u64;
             let x = q.position.as_vec3();
             let n = q.normal.as_vec3();

@@ -58,7 +58,17 @@ pub enum PathClass {
     Global,
 }
 
-/// A photon map: photons of one [`PathClass`] and the tree over their positions.
+/// Photons whose footprint radii lie within a factor of two, in a tree of their own: a range
+/// query for footprints that may reach a point then only needs this bin's largest radius, not
+/// the whole map's.
+struct RadiusBin {
+    max_radius: f32,
+    tree: ImmutableKdTree<f32, u32, 3, 32>,
+    /// Map indices of the bin's photons (the tree's items index this).
+    indices: Vec<u32>,
+}
+
+/// A photon map: photons of one [`PathClass`] and the trees over their positions.
 pub struct PhotonMap {
     /// The class of paths stored.
     pub class: PathClass,
@@ -70,7 +80,10 @@ pub struct PhotonMap {
     pub guards: Guards,
     /// Largest footprint circumradius in the map.
     pub max_radius: f32,
+    /// Over every photon, for k-nearest queries.
     tree: ImmutableKdTree<f32, u32, 3, 32>,
+    /// By footprint radius, for footprint range queries.
+    bins: Vec<RadiusBin>,
 }
 
 impl PhotonMap {
@@ -79,6 +92,41 @@ impl PhotonMap {
         let points: Vec<[f32; 3]> = photons.iter().map(|p| p.position.to_array()).collect();
         let tree = ImmutableKdTree::new_from_slice(&points);
         let max_radius = photons.iter().map(|p| p.radius).fold(0.0, f32::max);
+        let min_radius = photons
+            .iter()
+            .map(|p| p.radius)
+            .fold(f32::INFINITY, f32::min);
+        // Bin k holds radii in (min 2^(k-1), min 2^k].
+        let mut members: Vec<Vec<u32>> = Vec::new();
+        for (i, p) in photons.iter().enumerate() {
+            let k = if p.radius > min_radius {
+                (p.radius / min_radius).log2().ceil().max(0.0) as usize
+            } else {
+                0
+            };
+            if members.len() <= k {
+                members.resize(k + 1, Vec::new());
+            }
+            members[k].push(i as u32);
+        }
+        let bins = members
+            .into_iter()
+            .filter(|m| !m.is_empty())
+            .map(|indices| {
+                let points: Vec<[f32; 3]> = indices
+                    .iter()
+                    .map(|&i| photons[i as usize].position.to_array())
+                    .collect();
+                RadiusBin {
+                    max_radius: indices
+                        .iter()
+                        .map(|&i| photons[i as usize].radius)
+                        .fold(0.0, f32::max),
+                    tree: ImmutableKdTree::new_from_slice(&points),
+                    indices,
+                }
+            })
+            .collect();
         PhotonMap {
             class,
             photons,
@@ -86,6 +134,7 @@ impl PhotonMap {
             guards,
             max_radius,
             tree,
+            bins,
         }
     }
 
@@ -104,19 +153,22 @@ impl PhotonMap {
         self.photons.iter().map(|p| p.power.as_dvec3()).sum()
     }
 
-    /// Indices of the photons within `radius` of `x` (any order).
-    pub fn within(&self, x: DVec3, radius: f64, out: &mut Vec<u32>) {
+    /// Indices (any order) of a superset of the photons whose footprint, grown by `reach`, may
+    /// cover `x`: every photon with `|x - x_p| <= radius_p + reach`. Each radius bin is queried
+    /// with its own largest radius.
+    pub fn reaching(&self, x: DVec3, reach: f64, out: &mut Vec<u32>) {
         out.clear();
-        if self.photons.is_empty() {
-            return;
+        let query = x.as_vec3().to_array();
+        for bin in &self.bins {
+            let r = bin.max_radius as f64 + reach;
+            let r2 = (r * r) as f32;
+            out.extend(
+                bin.tree
+                    .within_unsorted::<SquaredEuclidean>(&query, r2)
+                    .into_iter()
+                    .map(|n| bin.indices[n.item as usize]),
+            );
         }
-        let r2 = (radius * radius) as f32;
-        out.extend(
-            self.tree
-                .within_unsorted::<SquaredEuclidean>(&x.as_vec3().to_array(), r2)
-                .into_iter()
-                .map(|n| n.item),
-        );
     }
 
     /// The (at most) `k` nearest photons within `max_radius` of `x`, nearest first, as

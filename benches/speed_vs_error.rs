@@ -1,0 +1,337 @@
+//! Speed against accuracy: every method at the default photon counts and at 4x and 16x them,
+//! rendering time against caustic error, charted (SVG and PNG, with an embedded font), and a
+//! crop of the caustic per method beside the reference.
+//!
+//! Run: `cargo bench --bench speed_vs_error`. Writes `out/speed_vs_error.{csv,svg,png}` and
+//! `out/caustic_crops.png`. Environment as for the timing table (`PHOTONDIFF_REFERENCE_PATHS`,
+//! `PHOTONDIFF_THREADS`).
+
+use photondiff::embree::Device;
+use photondiff::experiment::Method;
+use photondiff::film::{linear_to_srgb, Film};
+use photondiff::lighting::trace_photon_maps;
+use photondiff::metrics::{rel_rmse, ssim, Regions};
+use photondiff::photon_trace::PhotonOptions;
+use photondiff::scene_file::load_scene;
+use photondiff::stats::Stats;
+use plotters::prelude::*;
+use std::path::Path;
+
+fn env(name: &str, default: u64) -> u64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// One measured point.
+struct Point {
+    curve: String,
+    label: String,
+    scale: u32,
+    seconds: f64,
+    caustic: f64,
+    floor: f64,
+    contour: f64,
+    ssim: f64,
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let out = root.join("out");
+    std::fs::create_dir_all(&out)?;
+    let scene = load_scene(&root.join("scenes/caustic-sphere.toml"))?;
+    let device = Device::new()?;
+    let embree = scene.build_embree(&device)?;
+    let threads = env("PHOTONDIFF_THREADS", 0) as usize;
+    let paths = env("PHOTONDIFF_REFERENCE_PATHS", 1_000_000_000);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let reference = pool.install(|| {
+        photondiff::reference::load_or_make(
+            &scene,
+            &embree,
+            &out.join("reference"),
+            "caustic-sphere",
+            paths,
+            &mut |m| eprintln!("{m}"),
+        )
+    })?;
+    let regions = Regions::new(&scene, &embree, &reference.film);
+
+    let families: Vec<(&str, Vec<Method>)> = vec![
+        ("Regular", (1..=4).map(Method::regular).collect()),
+        (
+            "Multi-sampled",
+            [1, 2, 4, 8, 16]
+                .into_iter()
+                .map(Method::multisampled)
+                .collect(),
+        ),
+        ("Coplanar", vec![Method::coplanar()]),
+        ("Jensen", vec![Method::jensen(1), Method::jensen(3)]),
+    ];
+    let mut points = Vec::new();
+    let mut crops: Vec<(String, Film)> = Vec::new();
+    for scale in [1u32, 4, 16] {
+        let options = PhotonOptions {
+            global_photons: 100_000 * scale as usize,
+            caustic_photons: 20_000 * scale as usize,
+            ..PhotonOptions::default()
+        };
+        let maps = trace_photon_maps(
+            &scene,
+            &embree,
+            &options,
+            threads,
+            false,
+            &mut Stats::default(),
+        )?;
+        for (family, methods) in &families {
+            for method in methods {
+                let (film, seconds) = method.render(&scene, &embree, &maps, &options, threads)?;
+                eprintln!("photons x{scale}: {} {seconds:.3} s", method.label());
+                points.push(Point {
+                    curve: format!("{family}, photons x{scale}"),
+                    label: method.label(),
+                    scale,
+                    seconds,
+                    caustic: rel_rmse(&film, &reference.film, &regions.caustic),
+                    floor: rel_rmse(&film, &reference.film, &regions.diffuse),
+                    contour: rel_rmse(&film, &reference.film, &regions.contour),
+                    ssim: ssim(&film, &reference.film),
+                });
+                let shown = [
+                    Method::regular(1),
+                    Method::regular(3),
+                    Method::coplanar(),
+                    Method::multisampled(8),
+                    Method::jensen(1),
+                ];
+                if scale == 1 && shown.contains(method) {
+                    crops.push((method.label(), film));
+                }
+            }
+        }
+    }
+
+    // Table and CSV.
+    let mut csv = String::from(
+        "method,photon_scale,seconds,relrmse_caustic,relrmse_floor,relrmse_contour,ssim\n",
+    );
+    println!(
+        "\n## Speed against error: canonical scene, 640 x 480, {} threads\n",
+        pool.current_num_threads()
+    );
+    println!("relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R), against a light-traced reference of {paths} paths (noise: caustic {:.4}, floor {:.4}).\n",
+        reference.relative_noise(&regions.caustic), reference.relative_noise(&regions.diffuse));
+    println!("| method | photons | render s | relRMSE caustic | relRMSE floor | relRMSE contour | SSIM | Pareto |");
+    println!("|---|---|---|---|---|---|---|---|");
+    let pareto: Vec<bool> = points
+        .iter()
+        .map(|p| {
+            !points.iter().any(|q| {
+                // Dominated: another point at least as fast and strictly more accurate.
+                q.seconds <= p.seconds && q.caustic < p.caustic
+            })
+        })
+        .collect();
+    for (p, front) in points.iter().zip(&pareto) {
+        println!(
+            "| {} | x{} | {:.3} | {:.4} | {:.4} | {:.4} | {:.4} | {} |",
+            p.label,
+            p.scale,
+            p.seconds,
+            p.caustic,
+            p.floor,
+            p.contour,
+            p.ssim,
+            if *front { "yes" } else { "" }
+        );
+        csv += &format!(
+            "{},{},{:.6},{:.6},{:.6},{:.6},{:.6}\n",
+            p.label, p.scale, p.seconds, p.caustic, p.floor, p.contour, p.ssim
+        );
+    }
+    std::fs::write(out.join("speed_vs_error.csv"), csv)?;
+
+    // The chart, twice: SVG and PNG. The PNG's text uses DejaVu Sans, embedded: no system fonts.
+    plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
+        .map_err(|_| "cannot register the embedded font")?;
+    let svg = out.join("speed_vs_error.svg");
+    let png = out.join("speed_vs_error.png");
+    chart(
+        SVGBackend::new(&svg, (1000, 700)).into_drawing_area(),
+        &points,
+        &pareto,
+    )?;
+    chart(
+        BitMapBackend::new(&png, (1000, 700)).into_drawing_area(),
+        &points,
+        &pareto,
+    )?;
+
+    // Crops of the caustic, one tile per method, beside the reference.
+    crops.insert(
+        0,
+        (
+            "Reference (light tracing)".to_string(),
+            reference.film.clone(),
+        ),
+    );
+    montage(
+        &out.join("caustic_crops.png"),
+        &crops,
+        &regions,
+        scene.camera.width,
+    )?;
+    println!(
+        "\nWrote {}, {}, {} and {}.",
+        out.join("speed_vs_error.csv").display(),
+        svg.display(),
+        png.display(),
+        out.join("caustic_crops.png").display()
+    );
+    Ok(())
+}
+
+fn chart<DB: DrawingBackend>(
+    area: DrawingArea<DB, plotters::coord::Shift>,
+    points: &[Point],
+    pareto: &[bool],
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    area.fill(&WHITE)?;
+    let (tmin, tmax) = points.iter().fold((f64::MAX, 0.0f64), |(a, b), p| {
+        (a.min(p.seconds), b.max(p.seconds))
+    });
+    let (emin, emax) = points
+        .iter()
+        .filter(|p| p.caustic.is_finite())
+        .fold((f64::MAX, 0.0f64), |(a, b), p| {
+            (a.min(p.caustic), b.max(p.caustic))
+        });
+    let mut chart = ChartBuilder::on(&area)
+        .caption(
+            "Canonical scene: rendering time against caustic error",
+            ("sans-serif", 22),
+        )
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(65)
+        .build_cartesian_2d(
+            (tmin * 0.8..tmax * 1.25).log_scale(),
+            (emin * 0.8..emax * 1.25).log_scale(),
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc("rendering time (s), log scale")
+        .y_desc("caustic relRMSE, log scale")
+        .x_label_formatter(&|v| format!("{v:.2}"))
+        .y_label_formatter(&|v| format!("{v:.2}"))
+        .label_style(("sans-serif", 14))
+        .draw()?;
+    let mut curves: Vec<&str> = Vec::new();
+    for p in points {
+        if !curves.contains(&p.curve.as_str()) {
+            curves.push(&p.curve);
+        }
+    }
+    for (k, curve) in curves.iter().enumerate() {
+        let color = Palette99::pick(k).to_rgba();
+        // In the order measured: increasing N along each curve.
+        let series: Vec<(f64, f64)> = points
+            .iter()
+            .filter(|p| p.curve == *curve)
+            .map(|p| (p.seconds, p.caustic))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(series.clone(), color.stroke_width(2)))?
+            .label(curve.to_string())
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
+        chart.draw_series(
+            series
+                .iter()
+                .map(|&(x, y)| Circle::new((x, y), 4, color.filled())),
+        )?;
+    }
+    let mut front: Vec<(f64, f64)> = points
+        .iter()
+        .zip(pareto)
+        .filter(|(_, f)| **f)
+        .map(|(p, _)| (p.seconds, p.caustic))
+        .collect();
+    front.sort_by(|a, b| a.0.total_cmp(&b.0));
+    chart
+        .draw_series(LineSeries::new(front, BLACK.stroke_width(1)))?
+        .label("Pareto front")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK));
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 13))
+        .position(SeriesLabelPosition::UpperRight)
+        .draw()?;
+    area.present()?;
+    Ok(())
+}
+
+fn montage(
+    path: &Path,
+    tiles: &[(String, Film)],
+    regions: &Regions,
+    width: u32,
+) -> Result<(), Box<dyn std::error::Error>> {
+    // The caustic's bounding box, padded.
+    let (mut x0, mut y0, mut x1, mut y1) = (u32::MAX, u32::MAX, 0, 0);
+    for &i in &regions.caustic {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y));
+    }
+    if x0 > x1 {
+        return Ok(());
+    }
+    let film = &tiles[0].1;
+    let pad = 8;
+    let (x0, y0) = (x0.saturating_sub(pad), y0.saturating_sub(pad));
+    let (x1, y1) = (
+        (x1 + pad).min(film.width - 1),
+        (y1 + pad).min(film.height - 1),
+    );
+    let (cw, ch) = (x1 - x0 + 1, y1 - y0 + 1);
+    let scale = 2;
+    let label_h = 24;
+    let (tw, th) = (cw * scale, ch * scale + label_h);
+    let (w, h) = (tw * tiles.len() as u32, th);
+    let mut buffer = vec![255u8; (w * h * 3) as usize];
+    for (k, (_, film)) in tiles.iter().enumerate() {
+        for y in 0..ch * scale {
+            for x in 0..cw * scale {
+                let p = film.pixel(x0 + x / scale, y0 + y / scale);
+                let o = ((y * w + k as u32 * tw + x) * 3) as usize;
+                for (c, v) in p.to_array().iter().enumerate() {
+                    buffer[o + c] = (linear_to_srgb(*v) * 255.0 + 0.5) as u8;
+                }
+            }
+        }
+    }
+    {
+        let area = BitMapBackend::with_buffer(&mut buffer, (w, h)).into_drawing_area();
+        for (k, (label, _)) in tiles.iter().enumerate() {
+            area.draw(&Text::new(
+                label.clone(),
+                (k as i32 * tw as i32 + 4, (ch * scale) as i32 + 4),
+                ("sans-serif", 13).into_font().color(&BLACK),
+            ))?;
+        }
+        area.present()?;
+    }
+    image::save_buffer(path, &buffer, w, h, image::ExtendedColorType::Rgb8)?;
+    Ok(())
+}
