@@ -10,8 +10,11 @@ use crate::estimate::{
 use crate::footprint::tangent_frame;
 use crate::multisampled::footprint_circumradius;
 use crate::photon_map::PhotonMap;
-use crate::polygon::{area_centroid, ellipse, intersect_convex, parallelogram};
+use crate::polygon::{
+    area_centroid, ellipse_into, intersect_convex_with, parallelogram, unit_circle, ClipScratch,
+};
 use glam::{DVec2, DVec3, Vec3};
+use std::cell::RefCell;
 use std::f64::consts::FRAC_1_PI;
 
 /// The coplanar intersection-weighted estimate.
@@ -25,12 +28,39 @@ pub struct CoplanarEstimate<'a> {
 /// Coverage `w` (intersection area over the view footprint's area) and centroid (in the plane's
 /// 2D coordinates) of a photon footprint polygon against the view footprint polygon.
 pub fn coverage(photon: &[DVec2], view: &[DVec2]) -> (f64, DVec2) {
-    let (view_area, view_centre) = area_centroid(view);
+    coverage_with(
+        photon,
+        view,
+        area_centroid(view).0,
+        &mut ClipScratch::default(),
+    )
+}
+
+/// [`coverage`] with the view footprint's area precomputed and reusable clipping buffers.
+fn coverage_with(
+    photon: &[DVec2],
+    view: &[DVec2],
+    view_area: f64,
+    scratch: &mut ClipScratch,
+) -> (f64, DVec2) {
     if view_area <= 0.0 {
-        return (0.0, view_centre);
+        return (0.0, area_centroid(view).1);
     }
-    let (area, centroid) = area_centroid(&intersect_convex(photon, view));
+    let (area, centroid) = area_centroid(intersect_convex_with(photon, view, scratch));
     ((area / view_area).clamp(0.0, 1.0), centroid)
+}
+
+/// Buffers reused across gathers on one thread.
+#[derive(Default)]
+struct Scratch {
+    found: Vec<u32>,
+    unit: Vec<DVec2>,
+    polygon: Vec<DVec2>,
+    clip: ClipScratch,
+}
+
+thread_local! {
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
 impl RadianceEstimator for CoplanarEstimate<'_> {
@@ -38,51 +68,59 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
         counts.gathers += 1;
         let reach = footprint_circumradius(&q.footprint);
         let reach = if reach.is_finite() { reach } else { 0.0 };
-        let mut found = Vec::new();
-        self.map.reaching(q.position, reach, &mut found);
-        counts.photons_found += found.len() as u64;
         let (t1, t2) = tangent_frame(q.normal);
         let to_2d = |v: DVec3| DVec2::new(v.dot(t1), v.dot(t2));
         let view = parallelogram(DVec2::ZERO, to_2d(q.footprint[0]), to_2d(q.footprint[1]));
         let (view_area, _) = area_centroid(&view);
         let x = q.position.as_vec3();
         let n = q.normal.as_vec3();
-        let mut sum = Vec3::ZERO;
-        for &i in &found {
-            let p = &self.map.photons[i as usize];
-            if !on_query_surface(p, x - p.position, n) {
-                continue;
+        SCRATCH.with(|scratch| {
+            let scratch = &mut *scratch.borrow_mut();
+            if scratch.unit.len() != self.ellipse_vertices.max(3) {
+                scratch.unit = unit_circle(self.ellipse_vertices);
             }
-            let contribution = if view_area > 0.0 && view_area.is_finite() {
-                // The footprint's semi-axis vectors: M's rows are axis / sigma.
-                let axis = |m: Vec3| (m / m.length_squared()).as_dvec3();
-                let centre = to_2d(p.position.as_dvec3() - q.position);
-                // Bounding circles apart: no intersection, no polygon work.
-                if centre.length() > p.radius as f64 + reach {
+            self.map.reaching(q.position, reach, &mut scratch.found);
+            counts.photons_found += scratch.found.len() as u64;
+            let mut sum = Vec3::ZERO;
+            for &i in &scratch.found {
+                let p = &self.map.photons[i as usize];
+                if !on_query_surface(p, x - p.position, n) {
                     continue;
                 }
-                let polygon = ellipse(
-                    centre,
-                    to_2d(axis(p.m[0])),
-                    to_2d(axis(p.m[1])),
-                    self.ellipse_vertices,
-                );
-                let (w, c) = coverage(&polygon, &view);
-                if w <= 0.0 {
-                    continue;
+                let contribution = if view_area > 0.0 && view_area.is_finite() {
+                    let centre = to_2d(p.position.as_dvec3() - q.position);
+                    // Bounding circles apart: no intersection, no polygon work.
+                    if centre.length() > p.radius as f64 + reach {
+                        continue;
+                    }
+                    // The footprint's semi-axis vectors: M's rows are axis / sigma.
+                    let axis = |m: Vec3| to_2d((m / m.length_squared()).as_dvec3());
+                    ellipse_into(
+                        centre,
+                        axis(p.m[0]),
+                        axis(p.m[1]),
+                        &scratch.unit,
+                        &mut scratch.polygon,
+                    );
+                    let (w, c) =
+                        coverage_with(&scratch.polygon, &view, view_area, &mut scratch.clip);
+                    if w <= 0.0 {
+                        continue;
+                    }
+                    let c = q.position + t1 * c.x + t2 * c.y;
+                    photon_kernel(p, c.as_vec3() - p.position, n).map(|k| k * w as f32)
+                } else {
+                    // A degenerate view footprint is a point: the plain photon-differential
+                    // estimate.
+                    photon_kernel(p, x - p.position, n)
+                };
+                if let Some(c) = contribution {
+                    counts.photons_used += 1;
+                    sum += c;
                 }
-                let c = q.position + t1 * c.x + t2 * c.y;
-                photon_kernel(p, c.as_vec3() - p.position, n).map(|k| k * w as f32)
-            } else {
-                // A degenerate view footprint is a point: the plain photon-differential estimate.
-                photon_kernel(p, x - p.position, n)
-            };
-            if let Some(c) = contribution {
-                counts.photons_used += 1;
-                sum += c;
             }
-        }
-        q.albedo * FRAC_1_PI * sum.as_dvec3()
+            q.albedo * FRAC_1_PI * sum.as_dvec3()
+        })
     }
 }
 
@@ -97,7 +135,8 @@ mod tests {
         assert!((w - 1.0).abs() < 1e-12 && c.length() < 1e-12, "{w} {c}");
         let far = parallelogram(DVec2::new(5.0, 0.0), DVec2::X, DVec2::Y);
         assert_eq!(coverage(&far, &view).0, 0.0);
-        let e = ellipse(DVec2::ZERO, DVec2::new(0.1, 0.0), DVec2::new(0.0, 0.05), 32);
+        let e =
+            crate::polygon::ellipse(DVec2::ZERO, DVec2::new(0.1, 0.0), DVec2::new(0.0, 0.05), 32);
         let (w, c) = coverage(&e, &e);
         assert!((w - 1.0).abs() < 1e-12 && c.length() < 1e-12);
     }

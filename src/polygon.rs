@@ -44,9 +44,9 @@ pub fn area_centroid(points: &[DVec2]) -> (f64, DVec2) {
     (0.5 * a2.abs(), centroid)
 }
 
-/// `points` counter-clockwise, without consecutive duplicates.
-fn normalised(points: &[DVec2]) -> Vec<DVec2> {
-    let mut out: Vec<DVec2> = Vec::with_capacity(points.len());
+/// `points` counter-clockwise, without consecutive duplicates, into `out`.
+fn normalise_into(points: &[DVec2], out: &mut Vec<DVec2>) {
+    out.clear();
     for &p in points {
         if out.last() != Some(&p) {
             out.push(p);
@@ -55,28 +55,50 @@ fn normalised(points: &[DVec2]) -> Vec<DVec2> {
     while out.len() > 1 && out.first() == out.last() {
         out.pop();
     }
-    if twice_signed_area(&out) < 0.0 {
+    if twice_signed_area(out) < 0.0 {
         out.reverse();
     }
-    out
+}
+
+/// Buffers reused across intersections, so that clipping allocates nothing once warm.
+#[derive(Debug, Default, Clone)]
+pub struct ClipScratch {
+    clip: Vec<DVec2>,
+    current: Vec<DVec2>,
+    next: Vec<DVec2>,
 }
 
 /// The intersection of two convex polygons (vertices in order, either orientation), as a convex
 /// counter-clockwise polygon; empty when they do not overlap.
 pub fn intersect_convex(subject: &[DVec2], clip: &[DVec2]) -> Vec<DVec2> {
-    let clip = normalised(clip);
-    let mut current = normalised(subject);
-    if clip.len() < 3 || current.len() < 3 || twice_signed_area(&clip) <= 0.0 {
-        return Vec::new();
+    intersect_convex_with(subject, clip, &mut ClipScratch::default()).to_vec()
+}
+
+/// [`intersect_convex`] with reusable buffers; the result lives in `scratch`.
+pub fn intersect_convex_with<'s>(
+    subject: &[DVec2],
+    clip: &[DVec2],
+    scratch: &'s mut ClipScratch,
+) -> &'s [DVec2] {
+    let ClipScratch {
+        clip: clip_buf,
+        current,
+        next,
+    } = scratch;
+    normalise_into(clip, clip_buf);
+    normalise_into(subject, current);
+    let clip = &*clip_buf;
+    if clip.len() < 3 || current.len() < 3 || twice_signed_area(clip) <= 0.0 {
+        current.clear();
+        return current;
     }
     // Scale of the inputs, for a tolerance on "inside" that is relative, not absolute.
     let scale = clip
         .iter()
-        .chain(&current)
+        .chain(current.iter())
         .map(|p| p.abs().max_element())
         .fold(0.0, f64::max)
         .max(1e-300);
-    let mut next = Vec::with_capacity(current.len() + clip.len());
     for i in 0..clip.len() {
         let a = clip[i];
         let b = clip[(i + 1) % clip.len()];
@@ -89,9 +111,10 @@ pub fn intersect_convex(subject: &[DVec2], clip: &[DVec2]) -> Vec<DVec2> {
         let side = |p: DVec2| edge.perp_dot(p - a) / len;
         let tol = 1e-12 * scale;
         next.clear();
-        for j in 0..current.len() {
-            let p = current[j];
-            let q = current[(j + 1) % current.len()];
+        let current_ref: &Vec<DVec2> = current;
+        for j in 0..current_ref.len() {
+            let p = current_ref[j];
+            let q = current_ref[(j + 1) % current_ref.len()];
             let (dp, dq) = (side(p), side(q));
             let (p_in, q_in) = (dp >= -tol, dq >= -tol);
             if p_in {
@@ -102,12 +125,15 @@ pub fn intersect_convex(subject: &[DVec2], clip: &[DVec2]) -> Vec<DVec2> {
                 next.push(p + (q - p) * t);
             }
         }
-        std::mem::swap(&mut current, &mut next);
+        std::mem::swap(current, next);
         if current.len() < 3 {
-            return Vec::new();
+            current.clear();
+            return current;
         }
     }
-    normalised(&current)
+    normalise_into(current, next);
+    std::mem::swap(current, next);
+    current
 }
 
 /// The parallelogram `centre +- u/2 +- v/2`.
@@ -124,13 +150,28 @@ pub fn parallelogram(centre: DVec2, u: DVec2, v: DVec2) -> [DVec2; 4] {
 /// The ellipse `centre + cos(t) a + sin(t) b` as a polygon of `n` vertices (at least 3),
 /// inscribed in it.
 pub fn ellipse(centre: DVec2, a: DVec2, b: DVec2, n: usize) -> Vec<DVec2> {
+    let unit = unit_circle(n);
+    let mut out = Vec::new();
+    ellipse_into(centre, a, b, &unit, &mut out);
+    out
+}
+
+/// `(cos, sin)` of `n` (at least 3) equally spaced angles: an ellipse's polygon is then an
+/// affine image of it.
+pub fn unit_circle(n: usize) -> Vec<DVec2> {
     let n = n.max(3);
     (0..n)
         .map(|k| {
             let t = std::f64::consts::TAU * k as f64 / n as f64;
-            centre + a * t.cos() + b * t.sin()
+            DVec2::new(t.cos(), t.sin())
         })
         .collect()
+}
+
+/// The ellipse polygon `centre + c.x a + c.y b` for each `c` of `unit` into `out`.
+pub fn ellipse_into(centre: DVec2, a: DVec2, b: DVec2, unit: &[DVec2], out: &mut Vec<DVec2>) {
+    out.clear();
+    out.extend(unit.iter().map(|c| centre + a * c.x + b * c.y));
 }
 
 /// The convex hull of `points`, counter-clockwise (Andrew's monotone chain); collinear points
