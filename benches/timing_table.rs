@@ -119,5 +119,26 @@ fn main() -> Result<(), String> {
             ssim(film, &reference.film),
         );
     }
+
+    // Scaling with threads: one thread against all, alternated.
+    let all = pool.current_num_threads();
+    if all > 1 {
+        println!("\nThread scaling (rendering time on 1 thread over time on {all}, median of {repeats}, alternated):\n");
+        println!("| method | 1 thread (s) | {all} threads (s) | speed-up |");
+        println!("|---|---|---|---|");
+        for method in [
+            Method::regular(1),
+            Method::multisampled(8),
+            Method::coplanar(),
+        ] {
+            let (mut one, mut many) = (Vec::new(), Vec::new());
+            for _ in 0..repeats {
+                one.push(method.render(&scene, &embree, &maps, &options, 1)?.1);
+                many.push(method.render(&scene, &embree, &maps, &options, all)?.1);
+            }
+            let (a, b) = (median(one), median(many));
+            println!("| {} | {a:.3} | {b:.3} | {:.2} |", method.label(), a / b);
+        }
+    }
     Ok(())
 }
