@@ -16,6 +16,7 @@ pub mod estimate;
 pub mod experiment;
 pub mod film;
 pub mod footprint;
+pub mod light_path;
 pub mod lighting;
 pub mod lighttrace;
 pub mod mesh_io;

@@ -17,13 +17,12 @@
 //! reference's noise can be estimated from their difference. Chunks are summed in order: the
 //! result does not depend on the number of threads.
 
-use crate::differential::{fresnel_dielectric, Refraction};
 use crate::embree::{self, Ray};
-use crate::emission::{sample_cosine, Emitter};
+use crate::emission::Emitter;
 use crate::film::Film;
+use crate::light_path::LightPaths;
 use crate::rng::Rng;
-use crate::scene::{Material, Scene};
-use crate::surface::{continuation, facing, surface_frame, transfer_to};
+use crate::scene::Scene;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::FRAC_1_PI;
@@ -102,6 +101,7 @@ pub struct LightTracer<'a> {
     emitter: Emitter,
     epsilon: f64,
     pixel_area: f64,
+    paths: LightPaths<'a>,
 }
 
 impl<'a> LightTracer<'a> {
@@ -113,6 +113,7 @@ impl<'a> LightTracer<'a> {
     ) -> Self {
         let c = &scene.camera;
         let aspect = c.width as f64 / c.height as f64;
+        let epsilon = scene.ray_epsilon();
         let pixel_area = (2.0 * c.tan_half_fov * aspect / c.width as f64)
             * (2.0 * c.tan_half_fov / c.height as f64);
         LightTracer {
@@ -122,8 +123,15 @@ impl<'a> LightTracer<'a> {
             // Overlap is irrelevant here: the differentials are not used.
             emitter: Emitter::global(scene, options.paths as usize, 1.0, options.seed)
                 .with_random_samples(),
-            epsilon: scene.ray_epsilon(),
+            epsilon,
             pixel_area,
+            paths: LightPaths {
+                scene,
+                embree,
+                max_bounces: options.max_bounces,
+                diffuse_spread: 0.0,
+                epsilon,
+            },
         }
     }
 
@@ -169,66 +177,12 @@ impl<'a> LightTracer<'a> {
         let Some(emission) = self.emitter.emit(index, &mut rng) else {
             return 0;
         };
-        let mut ray = emission.ray;
-        let mut power = emission.power;
-        let mut tnear = 0.0;
-        let mut rays = 0;
-        for _ in 0..self.options.max_bounces {
-            rays += 1;
-            let query = Ray {
-                tnear,
-                ..continuation(&ray, 0.0)
-            };
-            tnear = self.epsilon;
-            let Some(hit) = self.embree.intersect(&query) else {
-                break;
-            };
-            let at = transfer_to(&ray, &hit);
-            let (frame, ng) = surface_frame(&hit, &at);
-            match *self.scene.material(hit.geom_id) {
-                Material::Emitter { .. } => break,
-                Material::Diffuse { albedo } => {
-                    rays += self.splat(
-                        at.p,
-                        facing(hit.geometric_normal, at.d),
-                        power * albedo * FRAC_1_PI,
-                        out,
-                    );
-                    let q = albedo.max_element();
-                    if q <= 0.0 || rng.uniform() >= q {
-                        break;
-                    }
-                    power *= albedo / q;
-                    let n = if frame.n.dot(ng) > 0.0 { frame.n } else { ng };
-                    ray = crate::differential::RayDifferential::new(
-                        at.p,
-                        sample_cosine(n, rng.uniform(), rng.uniform()),
-                    );
-                }
-                Material::Mirror { reflectance } => {
-                    let q = reflectance.max_element();
-                    if q <= 0.0 || rng.uniform() >= q {
-                        break;
-                    }
-                    power *= reflectance / q;
-                    ray = at.reflect(&frame);
-                }
-                Material::Glass { ior } => {
-                    let entering = at.d.dot(hit.geometric_normal) < 0.0;
-                    let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
-                    let f = fresnel_dielectric(-at.d.dot(frame.n), n_from, n_to);
-                    ray = if rng.uniform() < f {
-                        at.reflect(&frame)
-                    } else {
-                        match at.refract(&frame, n_from, n_to) {
-                            Refraction::Transmitted(t) => t,
-                            Refraction::TotalInternalReflection(r) => r,
-                        }
-                    };
-                }
-            }
-        }
-        rays
+        let mut connections = 0;
+        let rays = self.paths.walk(emission, &mut rng, |v| {
+            connections += self.splat(v.ray.p, v.normal, v.power * v.albedo * FRAC_1_PI, out);
+            true
+        });
+        rays + connections
     }
 
     /// Traces the paths (in rounds of chunks on the current rayon pool), advancing `progress`

@@ -7,14 +7,14 @@
 //! index), and emissions are collected in index order, so the maps are identical whatever the
 //! number of threads.
 
-use crate::differential::{fresnel_dielectric, RayDifferential, Refraction};
-use crate::embree::{self, Ray};
-use crate::emission::{sample_cosine, Emission, Emitter};
-use crate::footprint::{footprint, tangent_frame, FootprintLimits, Guards};
+use crate::differential::RayDifferential;
+use crate::embree;
+use crate::emission::{Emission, Emitter};
+use crate::footprint::{footprint, FootprintLimits, Guards};
+use crate::light_path::LightPaths;
 use crate::photon_map::{PathClass, Photon, PhotonMap};
 use crate::rng::Rng;
-use crate::scene::{Material, Scene};
-use crate::surface::{continuation, surface_frame, transfer_to};
+use crate::scene::Scene;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -102,7 +102,7 @@ pub struct PhotonTracer<'a> {
     /// Light leaving a diffuse surface spreads over the hemisphere (2 pi sr), shared by the
     /// global photons.
     diffuse_spread: f64,
-    epsilon: f64,
+    paths: LightPaths<'a>,
 }
 
 /// When a map is complete.
@@ -129,12 +129,19 @@ impl<'a> PhotonTracer<'a> {
     /// A tracer for `scene`.
     pub fn new(scene: &'a Scene, embree: &'a embree::Scene, options: &'a PhotonOptions) -> Self {
         let n = options.global_photons.max(1) as f64;
+        let diffuse_spread = (options.overlap * 2.0 * PI / (PI * n)).sqrt();
         PhotonTracer {
             scene,
             embree,
             options,
-            diffuse_spread: (options.overlap * 2.0 * PI / (PI * n)).sqrt(),
-            epsilon: scene.ray_epsilon(),
+            diffuse_spread,
+            paths: LightPaths {
+                scene,
+                embree,
+                max_bounces: options.max_bounces,
+                diffuse_spread,
+                epsilon: scene.ray_epsilon(),
+            },
         }
     }
 
@@ -148,92 +155,25 @@ impl<'a> PhotonTracer<'a> {
         rng: &mut Rng,
         out: &mut Vec<TracedPhoton>,
     ) -> u64 {
-        let mut ray = emission.ray;
-        let mut power = emission.power;
-        let (mut specular, mut diffuse) = (0u32, 0u32);
-        let mut path_length = 0.0;
-        // The first segment leaves the light itself.
-        let mut tnear = 0.0;
-        let mut rays = 0;
-        for _ in 0..self.options.max_bounces {
-            rays += 1;
-            let query = Ray {
-                tnear,
-                ..continuation(&ray, 0.0)
+        self.paths.walk(emission, rng, |v| {
+            let here = match (v.specular_bounces, v.diffuse_bounces) {
+                (_, d) if d > 0 => PathClass::Global,
+                (s, _) if s > 0 => PathClass::Caustic,
+                _ => PathClass::Direct,
             };
-            tnear = self.epsilon;
-            let Some(hit) = self.embree.intersect(&query) else {
-                break;
-            };
-            let at = transfer_to(&ray, &hit);
-            path_length += (hit.position - ray.p).length();
-            let (frame, ng) = surface_frame(&hit, &at);
-            match *self.scene.material(hit.geom_id) {
-                Material::Emitter { .. } => break,
-                Material::Diffuse { albedo } => {
-                    let here = match (specular, diffuse) {
-                        (_, d) if d > 0 => PathClass::Global,
-                        (s, _) if s > 0 => PathClass::Caustic,
-                        _ => PathClass::Direct,
-                    };
-                    if here == class {
-                        out.push(TracedPhoton {
-                            class,
-                            ray: at,
-                            normal: ng,
-                            power,
-                            path_length,
-                            specular_bounces: specular,
-                            diffuse_bounces: diffuse,
-                        });
-                    }
-                    if class != PathClass::Global {
-                        break;
-                    }
-                    // Russian roulette on the largest albedo channel.
-                    let q = albedo.max_element();
-                    if q <= 0.0 || rng.uniform() >= q {
-                        break;
-                    }
-                    power *= albedo / q;
-                    let n = if frame.n.dot(ng) > 0.0 { frame.n } else { ng };
-                    let d = sample_cosine(n, rng.uniform(), rng.uniform());
-                    let (t1, t2) = tangent_frame(d);
-                    ray = RayDifferential {
-                        p: at.p,
-                        d,
-                        dp: at.dp,
-                        dd: [t1 * self.diffuse_spread, t2 * self.diffuse_spread],
-                    };
-                    diffuse += 1;
-                }
-                Material::Mirror { reflectance } => {
-                    let q = reflectance.max_element();
-                    if q <= 0.0 || rng.uniform() >= q {
-                        break;
-                    }
-                    power *= reflectance / q;
-                    ray = at.reflect(&frame);
-                    specular += 1;
-                }
-                Material::Glass { ior } => {
-                    let entering = at.d.dot(hit.geometric_normal) < 0.0;
-                    let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
-                    let f = fresnel_dielectric(-at.d.dot(frame.n), n_from, n_to);
-                    // Reflect with probability F, refract otherwise: the power is unchanged.
-                    ray = if rng.uniform() < f {
-                        at.reflect(&frame)
-                    } else {
-                        match at.refract(&frame, n_from, n_to) {
-                            Refraction::Transmitted(t) => t,
-                            Refraction::TotalInternalReflection(r) => r,
-                        }
-                    };
-                    specular += 1;
-                }
+            if here == class {
+                out.push(TracedPhoton {
+                    class,
+                    ray: *v.ray,
+                    normal: v.normal,
+                    power: v.power,
+                    path_length: v.path_length,
+                    specular_bounces: v.specular_bounces,
+                    diffuse_bounces: v.diffuse_bounces,
+                });
             }
-        }
-        rays
+            class == PathClass::Global
+        })
     }
 
     /// Traces emissions from `emitter` in index order until `stop` is met, divides the stored
