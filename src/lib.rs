@@ -32,6 +32,7 @@ pub mod rng;
 pub mod scene;
 pub mod scene_file;
 pub mod shapes;
+pub mod stability;
 pub mod stats;
 pub mod surface;
 pub mod view_path;

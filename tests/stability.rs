@@ -1,0 +1,146 @@
+//! Every estimator on every stress scene (`scenes/stress/`), at 80 x 60: no NaN, infinite,
+//! negative or impossibly bright pixel; the image energy where the reference is lit within a
+//! stated tolerance of a light-traced reference's; guards counted where footprints degenerate.
+
+use photondiff::camera::Camera;
+use photondiff::embree::Device;
+use photondiff::experiment::Method;
+use photondiff::lighting::trace_photon_maps;
+use photondiff::lighttrace::{LightTraceOptions, LightTracer};
+use photondiff::metrics::Regions;
+use photondiff::photon_trace::PhotonOptions;
+use photondiff::scene::Scene;
+use photondiff::scene_file::load_scene;
+use photondiff::stability::{bad_pixels, energy_error, radiance_bound};
+use photondiff::stats::Stats;
+use std::path::Path;
+
+/// Image energy tolerance where the reference is lit: direct light is computed alike, the photon
+/// maps differ by noise, blur and guarded footprints.
+const ENERGY_TOLERANCE: f64 = 0.15;
+
+fn scene(file: &str) -> Scene {
+    let mut scene = load_scene(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("scenes")
+            .join(file),
+    )
+    .unwrap();
+    let c = &scene.camera;
+    let fov = 2.0 * c.tan_half_fov.atan().to_degrees();
+    scene.camera = Camera::look_at(c.eye, c.eye + c.forward, c.up, fov, 80, 60).unwrap();
+    scene
+}
+
+/// Renders `scene` with every method from photon maps of the given counts, checks the promises,
+/// and returns the caustic map's guard count.
+fn check(name: &str, scene: &Scene, global: usize, caustic: usize) -> u64 {
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let options = PhotonOptions {
+        global_photons: global,
+        caustic_photons: caustic,
+        ..PhotonOptions::default()
+    };
+    let mut stats = Stats::default();
+    let maps = trace_photon_maps(scene, &embree, &options, 0, false, &mut stats).unwrap();
+    let lt = LightTraceOptions {
+        paths: 4_000_000,
+        ..LightTraceOptions::default()
+    };
+    let reference = LightTracer::new(scene, &embree, &lt).run(&indicatif::ProgressBar::hidden());
+    let regions = Regions::new(scene, &embree, &reference.film);
+    let lit: Vec<usize> = regions
+        .diffuse
+        .iter()
+        .copied()
+        .filter(|&i| reference.film.pixels[i].max_element() > 0.0)
+        .collect();
+    assert!(lit.len() > 500, "{name}: only {} lit pixels", lit.len());
+    let bound = radiance_bound(scene, options.limits(scene).min_radius);
+    for method in [
+        Method::jensen(1),
+        Method::regular(1),
+        Method::coplanar(),
+        Method::multisampled(4),
+    ] {
+        let (film, _) = method.render(scene, &embree, &maps, &options, 0).unwrap();
+        let bad = bad_pixels(&film, bound);
+        assert_eq!(
+            bad,
+            0,
+            "{name}, {}: {bad} pixels NaN, infinite, negative or above {bound}",
+            method.label()
+        );
+        let energy = energy_error(&film, &reference.film, &lit);
+        eprintln!("{name}, {}: energy {energy:+.4}", method.label());
+        assert!(
+            energy.abs() < ENERGY_TOLERANCE,
+            "{name}, {}: energy {energy:+.3} against the reference",
+            method.label()
+        );
+    }
+    let g = maps.caustic.guards;
+    assert_eq!(
+        stats.photon_maps[0].guards, g,
+        "{name}: guards are reported in the statistics"
+    );
+    g.total()
+}
+
+#[test]
+fn grazing_light() {
+    let guards = check(
+        "grazing light",
+        &scene("stress/grazing-light.toml"),
+        100_000,
+        20_000,
+    );
+    assert!(guards > 0, "grazing footprints must be guarded");
+}
+
+#[test]
+fn focal_caustic() {
+    let guards = check(
+        "focal caustic",
+        &scene("stress/focal-caustic.toml"),
+        100_000,
+        20_000,
+    );
+    assert!(guards > 0, "collapsed footprints must be guarded");
+}
+
+#[test]
+fn over_an_edge() {
+    check(
+        "over an edge",
+        &scene("stress/over-an-edge.toml"),
+        100_000,
+        20_000,
+    );
+}
+
+#[test]
+fn glass_through_glass() {
+    check(
+        "glass through glass",
+        &scene("stress/glass-through-glass.toml"),
+        100_000,
+        20_000,
+    );
+}
+
+#[test]
+fn photon_starvation() {
+    check("1,000 photons", &scene("caustic-sphere.toml"), 1_000, 1_000);
+}
+
+#[test]
+fn photon_plenty() {
+    check(
+        "5,000,000 photons",
+        &scene("caustic-sphere.toml"),
+        5_000_000,
+        5_000_000,
+    );
+}
