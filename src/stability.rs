@@ -116,16 +116,16 @@ mod tests {
     #[test]
     fn closest_points_on_a_triangle() {
         let (a, b, c) = (DVec3::ZERO, DVec3::X, DVec3::Y);
-        assert_eq!(
-            closest_on_triangle(DVec3::new(0.2, 0.2, 5.0), a, b, c),
-            DVec3::new(0.2, 0.2, 0.0)
-        );
-        assert_eq!(closest_on_triangle(DVec3::new(-1.0, -1.0, 0.0), a, b, c), a);
-        assert_eq!(
-            closest_on_triangle(DVec3::new(0.5, -2.0, 1.0), a, b, c),
-            DVec3::new(0.5, 0.0, 0.0)
-        );
-        let p = closest_on_triangle(DVec3::new(1.0, 1.0, 0.0), a, b, c);
-        assert!((p - DVec3::new(0.5, 0.5, 0.0)).length() < 1e-12);
+        let near = |p: DVec3, q: DVec3| (p - q).length() < 1e-12;
+        let cases = [
+            (DVec3::new(0.2, 0.2, 5.0), DVec3::new(0.2, 0.2, 0.0)),
+            (DVec3::new(-1.0, -1.0, 0.0), a),
+            (DVec3::new(0.5, -2.0, 1.0), DVec3::new(0.5, 0.0, 0.0)),
+            (DVec3::new(1.0, 1.0, 0.0), DVec3::new(0.5, 0.5, 0.0)),
+            (DVec3::new(3.0, -1.0, 0.0), b),
+        ];
+        for (p, expected) in cases {
+            assert!(near(closest_on_triangle(p, a, b, c), expected), "{p}");
+        }
     }
 }
