@@ -7,7 +7,6 @@
 //! `out/reference/`.
 
 use glam::DVec3;
-use photondiff::camera::Camera;
 use photondiff::embree::Device;
 use photondiff::experiment::Method;
 use photondiff::lighting::trace_photon_maps;
@@ -58,12 +57,7 @@ fn measure(
         &mut |m| eprintln!("{m}"),
     )?;
     let regions = Regions::new(scene, &embree, &reference.film);
-    let lit: Vec<usize> = regions
-        .diffuse
-        .iter()
-        .copied()
-        .filter(|&i| reference.film.pixels[i].max_element() > 0.0)
-        .collect();
+    let lit = &regions.lit;
     let options = PhotonOptions {
         global_photons: photons.0,
         caustic_photons: photons.1,
@@ -77,9 +71,9 @@ fn measure(
         let (film, seconds) = method.render(scene, &embree, &maps, &options, 0)?;
         rows.push((
             method.label(),
-            rel_rmse(&film, &reference.film, &lit),
-            worst_pixel_ratio(&film, &reference.film, &lit),
-            energy_error(&film, &reference.film, &lit),
+            rel_rmse(&film, &reference.film, lit),
+            worst_pixel_ratio(&film, &reference.film, lit),
+            energy_error(&film, &reference.film, lit),
             guards,
             seconds,
         ));
@@ -88,10 +82,7 @@ fn measure(
 }
 
 fn at_160x120(mut scene: Scene) -> Scene {
-    let c = &scene.camera;
-    let fov = 2.0 * c.tan_half_fov.atan().to_degrees();
-    scene.camera =
-        Camera::look_at(c.eye, c.eye + c.forward, c.up, fov, 160, 120).expect("valid camera");
+    scene.camera = scene.camera.with_resolution(160, 120);
     scene
 }
 

@@ -51,6 +51,15 @@ impl Camera {
         })
     }
 
+    /// The same camera rendering `width x height` pixels (same vertical field of view).
+    pub fn with_resolution(&self, width: u32, height: u32) -> Self {
+        Camera {
+            width,
+            height,
+            ..self.clone()
+        }
+    }
+
     fn aspect(&self) -> f64 {
         self.width as f64 / self.height as f64
     }
@@ -133,6 +142,16 @@ mod tests {
         let fd_y = (c.ray(x, y + h, 1.0).d - c.ray(x, y - h, 1.0).d) / (2.0 * h);
         assert!((r.dd[0] - fd_x).length() < 1e-8 * fd_x.length().max(1e-3) * 1e3);
         assert!((r.dd[1] - fd_y).length() < 1e-8 * fd_y.length().max(1e-3) * 1e3);
+    }
+
+    #[test]
+    fn a_new_resolution_keeps_the_view() {
+        let c = camera();
+        let small = c.with_resolution(80, 60);
+        // Same relative image position, same direction.
+        let (a, b) = (c.ray(100.0, 30.0, 1.0).d, small.ray(12.5, 3.75, 1.0).d);
+        assert!((a - b).length() < 1e-12);
+        assert_eq!((small.width, small.height), (80, 60));
     }
 
     #[test]

@@ -14,6 +14,9 @@ use std::f64::consts::FRAC_1_PI;
 pub struct Regions {
     /// Pixels whose centre camera ray first hits a diffuse surface.
     pub diffuse: Vec<usize>,
+    /// Diffuse pixels the reference lights (any channel above zero): where image energy is
+    /// compared.
+    pub lit: Vec<usize>,
     /// Diffuse pixels where the reference exceeds 1.5 times the direct radiance the point and
     /// spot lights would give there if nothing blocked them (the caustic).
     pub caustic: Vec<usize>,
@@ -87,8 +90,14 @@ impl Regions {
             .map(|g| g.1)
             .collect();
         contour.sort_unstable();
+        let lit = diffuse
+            .iter()
+            .copied()
+            .filter(|&i| reference.pixels[i].max_element() > 0.0)
+            .collect();
         Regions {
             diffuse,
+            lit,
             caustic,
             contour,
         }

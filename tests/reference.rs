@@ -2,7 +2,6 @@
 //! noise estimate, and its independence of the thread count.
 
 use glam::DVec3;
-use photondiff::camera::Camera;
 use photondiff::embree::Device;
 use photondiff::lighttrace::{LightTraceOptions, LightTracer};
 use photondiff::scene::Scene;
@@ -17,9 +16,7 @@ fn canonical(width: u32, height: u32) -> Scene {
         "/scenes/caustic-sphere.toml"
     )))
     .unwrap();
-    let c = &scene.camera;
-    let fov = 2.0 * c.tan_half_fov.atan().to_degrees();
-    scene.camera = Camera::look_at(c.eye, c.eye + c.forward, c.up, fov, width, height).unwrap();
+    scene.camera = scene.camera.with_resolution(width, height);
     scene
 }
 

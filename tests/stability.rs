@@ -2,7 +2,6 @@
 //! negative or impossibly bright pixel; the image energy where the reference is lit within a
 //! stated tolerance of a light-traced reference's; guards counted where footprints degenerate.
 
-use photondiff::camera::Camera;
 use photondiff::embree::Device;
 use photondiff::experiment::Method;
 use photondiff::lighting::trace_photon_maps;
@@ -26,9 +25,7 @@ fn scene(file: &str) -> Scene {
             .join(file),
     )
     .unwrap();
-    let c = &scene.camera;
-    let fov = 2.0 * c.tan_half_fov.atan().to_degrees();
-    scene.camera = Camera::look_at(c.eye, c.eye + c.forward, c.up, fov, 80, 60).unwrap();
+    scene.camera = scene.camera.with_resolution(80, 60);
     scene
 }
 
@@ -50,12 +47,7 @@ fn check(name: &str, scene: &Scene, global: usize, caustic: usize) -> u64 {
     };
     let reference = LightTracer::new(scene, &embree, &lt).run(&indicatif::ProgressBar::hidden());
     let regions = Regions::new(scene, &embree, &reference.film);
-    let lit: Vec<usize> = regions
-        .diffuse
-        .iter()
-        .copied()
-        .filter(|&i| reference.film.pixels[i].max_element() > 0.0)
-        .collect();
+    let lit = &regions.lit;
     assert!(lit.len() > 500, "{name}: only {} lit pixels", lit.len());
     let bound = radiance_bound(scene, options.limits(scene).min_radius);
     for method in [
@@ -72,7 +64,7 @@ fn check(name: &str, scene: &Scene, global: usize, caustic: usize) -> u64 {
             "{name}, {}: {bad} pixels NaN, infinite, negative or above {bound}",
             method.label()
         );
-        let energy = energy_error(&film, &reference.film, &lit);
+        let energy = energy_error(&film, &reference.film, lit);
         eprintln!("{name}, {}: energy {energy:+.4}", method.label());
         assert!(
             energy.abs() < ENERGY_TOLERANCE,
