@@ -5,9 +5,11 @@
 //! Run: `cargo bench --bench kernels`
 
 use glam::{DVec2, Vec2};
-use photondiff::multisampled::{kernel_sums, kernel_sums_scalar, sample_offsets, KernelBatch};
-use photondiff::polygon::{area_centroid, ellipse, intersect_convex, parallelogram};
-use photondiff::rng::Rng;
+use photondiff::estimate::multisampled::{
+    kernel_sums, kernel_sums_scalar, sample_offsets, KernelBatch,
+};
+use photondiff::geometry::polygon::{area_centroid, ellipse, intersect_convex, parallelogram};
+use photondiff::util::rng::Rng;
 use std::time::Instant;
 
 const REPEATS: usize = 7;

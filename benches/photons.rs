@@ -6,14 +6,15 @@
 
 use glam::DVec3;
 use photondiff::embree::{Device, RawRays, Ray};
-use photondiff::emission::{sample_cosine, Emitter};
 use photondiff::estimate::{
     GatherCounts, GatherQuery, JensenEstimate, PhotonDifferentialEstimate, RadianceEstimator,
 };
-use photondiff::photon_map::PathClass;
-use photondiff::photon_trace::{PhotonOptions, PhotonTracer, StopRule};
-use photondiff::rng::Rng;
-use photondiff::scene_file::load_scene;
+use photondiff::geometry::sampling::sample_cosine;
+use photondiff::photons::emission::Emitter;
+use photondiff::photons::map::PathClass;
+use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+use photondiff::scene::file::load_scene;
+use photondiff::util::rng::Rng;
 use std::path::Path;
 use std::time::Instant;
 
@@ -49,7 +50,7 @@ fn main() {
     let mut rng = Rng::new(7, 0);
     let to = DVec3::new(0.0, 1.0, 0.0) - light;
     let cos_max = (1.0 - 1.0 / to.length_squared()).sqrt();
-    let (t1, t2) = photondiff::footprint::tangent_frame(to.normalize());
+    let (t1, t2) = photondiff::geometry::sampling::tangent_frame(to.normalize());
     let mut cone_rays = Vec::new();
     let mut global_rays = Vec::new();
     for _ in 0..100_000 {

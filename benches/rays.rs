@@ -6,7 +6,7 @@
 
 use glam::DVec3;
 use photondiff::embree::{Device, RawRays, Ray, Scene};
-use photondiff::scene_file::load_scene;
+use photondiff::scene::file::load_scene;
 use std::path::Path;
 use std::time::Instant;
 

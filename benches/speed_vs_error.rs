@@ -7,13 +7,13 @@
 //! `PHOTONDIFF_THREADS`).
 
 use photondiff::embree::Device;
-use photondiff::experiment::Method;
-use photondiff::film::{linear_to_srgb, Film};
-use photondiff::lighting::trace_photon_maps;
-use photondiff::metrics::{rel_rmse, ssim, Regions};
-use photondiff::photon_trace::PhotonOptions;
-use photondiff::scene_file::load_scene;
-use photondiff::stats::Stats;
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::reference::experiment::Method;
+use photondiff::reference::metrics::{rel_rmse, ssim, Regions};
+use photondiff::render::film::{linear_to_srgb, Film};
+use photondiff::render::stats::Stats;
+use photondiff::render::trace_photon_maps;
+use photondiff::scene::file::load_scene;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -49,7 +49,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .num_threads(threads)
         .build()?;
     let reference = pool.install(|| {
-        photondiff::reference::load_or_make(
+        photondiff::reference::cache::load_or_make(
             &scene,
             &embree,
             &out.join("reference"),

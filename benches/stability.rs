@@ -8,14 +8,14 @@
 
 use glam::DVec3;
 use photondiff::embree::Device;
-use photondiff::experiment::Method;
-use photondiff::lighting::trace_photon_maps;
-use photondiff::metrics::{rel_rmse, Regions};
-use photondiff::photon_trace::PhotonOptions;
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::reference::experiment::Method;
+use photondiff::reference::metrics::{rel_rmse, Regions};
+use photondiff::reference::stability::{energy_error, worst_pixel_ratio};
+use photondiff::render::stats::Stats;
+use photondiff::render::trace_photon_maps;
+use photondiff::scene::file::load_scene;
 use photondiff::scene::{Light, Scene};
-use photondiff::scene_file::load_scene;
-use photondiff::stability::{energy_error, worst_pixel_ratio};
-use photondiff::stats::Stats;
 use plotters::prelude::*;
 use std::path::Path;
 
@@ -48,7 +48,7 @@ fn measure(
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let device = Device::new()?;
     let embree = scene.build_embree(&device)?;
-    let reference = photondiff::reference::load_or_make(
+    let reference = photondiff::reference::cache::load_or_make(
         scene,
         &embree,
         &root.join("out/reference"),

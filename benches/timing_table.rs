@@ -6,12 +6,12 @@
 //! `PHOTONDIFF_REPEATS` (default 3), `PHOTONDIFF_THREADS` (default: all cores).
 
 use photondiff::embree::Device;
-use photondiff::experiment::Method;
-use photondiff::lighting::trace_photon_maps;
-use photondiff::metrics::{rel_rmse, ssim, Regions};
-use photondiff::photon_trace::PhotonOptions;
-use photondiff::scene_file::load_scene;
-use photondiff::stats::Stats;
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::reference::experiment::Method;
+use photondiff::reference::metrics::{rel_rmse, ssim, Regions};
+use photondiff::render::stats::Stats;
+use photondiff::render::trace_photon_maps;
+use photondiff::scene::file::load_scene;
 use std::path::Path;
 
 fn env(name: &str, default: u64) -> u64 {
@@ -40,7 +40,7 @@ fn main() -> Result<(), String> {
         .map_err(|e| e.to_string())?;
 
     let reference = pool.install(|| {
-        photondiff::reference::load_or_make(
+        photondiff::reference::cache::load_or_make(
             &scene,
             &embree,
             &root.join("out/reference"),

@@ -1,38 +1,23 @@
 //! photondiff: photon mapping with photon differentials; every ray query goes through Intel
 //! Embree over FFI.
 //!
-//! Flow, one module per concern: scene file ([`scene_file`], [`mesh_io`], [`shapes`]) -> scene
-//! ([`scene`], [`camera`]) -> Embree scene ([`embree`]) -> camera paths with ray differentials
-//! ([`differential`], [`view_path`]) -> radiance ([`direct`]) -> film ([`film`]) and statistics
-//! ([`stats`]), driven by [`render`].
+//! The folders are the stages, in the order data flows through them:
+//!
+//! scene file -> [`scene`] -> [`embree`] scene -> [`photons`] (tracing, photon maps) ->
+//! [`estimate`] (radiance estimators) -> [`render`] (camera paths, direct light, the rendering
+//! loop, film, statistics) -> EXR/PNG.
+//!
+//! Beside them: [`geometry`] (ray differentials, surface frames, polygons: pure math),
+//! [`reference`](mod@reference) (the light tracer, metrics and experiments that measure the renderer) and
+//! [`util`] (random numbers, progress). Dependencies run one way: `reference` -> `render` ->
+//! `estimate` -> `photons` -> `scene` -> `geometry` -> `embree`, with `util` below all; no module
+//! imports one above it. `unsafe` lives in [`embree`] alone.
 
-pub mod camera;
-pub mod coplanar;
-pub mod differential;
-pub mod direct;
 pub mod embree;
-pub mod emission;
 pub mod estimate;
-pub mod experiment;
-pub mod film;
-pub mod footprint;
-pub mod light_path;
-pub mod lighting;
-pub mod lighttrace;
-pub mod mesh_io;
-pub mod metrics;
-pub mod multisampled;
-pub mod photon_map;
-pub mod photon_trace;
-pub mod polygon;
-pub mod progress;
+pub mod geometry;
+pub mod photons;
 pub mod reference;
 pub mod render;
-pub mod rng;
 pub mod scene;
-pub mod scene_file;
-pub mod shapes;
-pub mod stability;
-pub mod stats;
-pub mod surface;
-pub mod view_path;
+pub mod util;

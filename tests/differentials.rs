@@ -3,9 +3,9 @@
 //! glass sphere with interpolated normals (including total internal reflection).
 
 use glam::DVec3;
-use photondiff::differential::{RayDifferential, Refraction, SurfaceFrame};
 use photondiff::embree::{Device, Ray, Scene, SceneBuilder};
-use photondiff::shapes;
+use photondiff::geometry::differential::{RayDifferential, Refraction, SurfaceFrame};
+use photondiff::scene::shapes;
 
 /// A two-parameter family of rays: origin `p0 + u a + v b`, direction `normalize(d0 + u c + v e)`,
 /// with its exact differentials at `(0, 0)`.

@@ -1,12 +1,12 @@
 //! Direct light against analytic values, and bit-identical images on any thread count.
 
 use glam::DVec3;
-use photondiff::camera::Camera;
 use photondiff::embree::Device;
+use photondiff::render::stats::Stats;
 use photondiff::render::{render, RenderOptions};
+use photondiff::scene::camera::Camera;
+use photondiff::scene::file::{load_scene, parse_scene};
 use photondiff::scene::Scene;
-use photondiff::scene_file::{load_scene, parse_scene};
-use photondiff::stats::Stats;
 use std::f64::consts::PI;
 use std::path::Path;
 

@@ -2,8 +2,8 @@
 
 use glam::DVec3;
 use photondiff::embree::{Device, EmbreeError, Hit, Ray, Scene, SceneBuilder, TriangleMesh};
-use photondiff::rng::Rng;
-use photondiff::shapes;
+use photondiff::scene::shapes;
+use photondiff::util::rng::Rng;
 
 fn scene() -> Scene {
     let device = Device::new().unwrap();

@@ -4,12 +4,13 @@
 
 use photondiff::embree::Device;
 use photondiff::estimate::RadianceEstimator;
-use photondiff::lighting::{trace_photon_maps, EstimatorKind, EstimatorSettings};
-use photondiff::mesh_io::load_mesh;
-use photondiff::photon_trace::PhotonOptions;
+use photondiff::estimate::{EstimatorKind, EstimatorSettings};
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::render::stats::Stats;
+use photondiff::render::trace_photon_maps;
 use photondiff::render::{render, RenderOptions};
-use photondiff::scene_file::parse_scene;
-use photondiff::stats::Stats;
+use photondiff::scene::file::parse_scene;
+use photondiff::scene::mesh_file::load_mesh;
 use proptest::prelude::*;
 use std::path::Path;
 

@@ -1,6 +1,6 @@
 //! Valid OBJ and PLY files load into the meshes they describe.
 
-use photondiff::mesh_io::load_mesh;
+use photondiff::scene::mesh_file::load_mesh;
 
 #[test]
 fn ply_polygons_are_fan_triangulated_and_normals_kept() {

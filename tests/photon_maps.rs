@@ -3,18 +3,19 @@
 //! the glass sphere, path classes, thread independence, and the caustic's energy.
 
 use glam::DVec3;
-use photondiff::differential::RayDifferential;
 use photondiff::embree::{self, Device};
-use photondiff::emission::{Emission, Emitter};
 use photondiff::estimate::{
     photon_kernel, GatherCounts, GatherQuery, PhotonDifferentialEstimate, RadianceEstimator,
 };
-use photondiff::footprint::{footprint, tangent_frame, FootprintLimits, Guards};
-use photondiff::photon_map::{PathClass, Photon, PhotonMap};
-use photondiff::photon_trace::{PhotonOptions, PhotonTracer, StopRule, TracedPhoton};
-use photondiff::rng::Rng;
+use photondiff::geometry::differential::RayDifferential;
+use photondiff::geometry::sampling::tangent_frame;
+use photondiff::photons::emission::{Emission, Emitter};
+use photondiff::photons::footprint::{footprint, FootprintLimits, Guards};
+use photondiff::photons::map::{PathClass, Photon, PhotonMap};
+use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule, TracedPhoton};
+use photondiff::scene::file::{load_scene, parse_scene};
 use photondiff::scene::{Material, Scene};
-use photondiff::scene_file::{load_scene, parse_scene};
+use photondiff::util::rng::Rng;
 use std::f64::consts::PI;
 use std::path::Path;
 
@@ -325,7 +326,7 @@ fn transmitted_fraction(origin: DVec3, d: DVec3, inside: bool, depth: u32) -> f6
             let n = if inside { -n_out } else { n_out };
             let cos_i = -d.dot(n);
             let (n1, n2) = if inside { (1.5, 1.0) } else { (1.0, 1.5) };
-            let f = photondiff::differential::fresnel_dielectric(cos_i, n1, n2);
+            let f = photondiff::geometry::differential::fresnel_dielectric(cos_i, n1, n2);
             let r = d - n * (2.0 * d.dot(n));
             let mut total = f * transmitted_fraction(p, r, inside, depth + 1);
             if f < 1.0 {

@@ -3,9 +3,9 @@
 
 use glam::DVec3;
 use photondiff::embree::Device;
-use photondiff::lighttrace::{LightTraceOptions, LightTracer};
+use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
+use photondiff::scene::file::load_scene;
 use photondiff::scene::Scene;
-use photondiff::scene_file::load_scene;
 use std::f64::consts::PI;
 use std::path::Path;
 

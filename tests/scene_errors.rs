@@ -1,7 +1,7 @@
 //! Every kind of bad scene input gives a clear message naming the file and the field or line,
 //! and the command line exits non-zero without panicking.
 
-use photondiff::scene_file::load_scene;
+use photondiff::scene::file::load_scene;
 use std::path::Path;
 use std::process::Command;
 

@@ -3,15 +3,15 @@
 //! stated tolerance of a light-traced reference's; guards counted where footprints degenerate.
 
 use photondiff::embree::Device;
-use photondiff::experiment::Method;
-use photondiff::lighting::trace_photon_maps;
-use photondiff::lighttrace::{LightTraceOptions, LightTracer};
-use photondiff::metrics::Regions;
-use photondiff::photon_trace::PhotonOptions;
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::reference::experiment::Method;
+use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
+use photondiff::reference::metrics::Regions;
+use photondiff::reference::stability::{bad_pixels, energy_error, radiance_bound};
+use photondiff::render::stats::Stats;
+use photondiff::render::trace_photon_maps;
+use photondiff::scene::file::load_scene;
 use photondiff::scene::Scene;
-use photondiff::scene_file::load_scene;
-use photondiff::stability::{bad_pixels, energy_error, radiance_bound};
-use photondiff::stats::Stats;
 use std::path::Path;
 
 /// Image energy tolerance where the reference is lit: direct light is computed alike, the photon

@@ -3,22 +3,23 @@
 //! finite, non-negative images from every estimator on the canonical scene.
 
 use glam::{DVec2, DVec3};
-use photondiff::coplanar::CoplanarEstimate;
 use photondiff::embree::{Device, Ray};
-use photondiff::emission::Emitter;
+use photondiff::estimate::coplanar::CoplanarEstimate;
+use photondiff::estimate::multisampled::MultiSampledEstimate;
+use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::estimate::{
     GatherCounts, GatherQuery, PhotonDifferentialEstimate, RadianceEstimator,
 };
-use photondiff::lighting::{trace_photon_maps, EstimatorKind, EstimatorSettings};
-use photondiff::multisampled::MultiSampledEstimate;
-use photondiff::photon_map::{PathClass, PhotonMap};
-use photondiff::photon_trace::{PhotonOptions, PhotonTracer, StopRule};
-use photondiff::polygon::{area_centroid, convex_hull, intersect_convex};
+use photondiff::geometry::polygon::{area_centroid, convex_hull, intersect_convex};
+use photondiff::geometry::surface::transfer_to;
+use photondiff::photons::emission::Emitter;
+use photondiff::photons::map::{PathClass, PhotonMap};
+use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+use photondiff::render::stats::Stats;
+use photondiff::render::trace_photon_maps;
 use photondiff::render::{render, RenderOptions};
+use photondiff::scene::file::load_scene;
 use photondiff::scene::Scene;
-use photondiff::scene_file::load_scene;
-use photondiff::stats::Stats;
-use photondiff::surface::transfer_to;
 use proptest::prelude::*;
 use std::path::Path;
 

@@ -2,7 +2,7 @@
 //! brighter than a bound derived from the scene's power, and image energy close to the
 //! reference's. Shared by the stability tests and the stability benchmark.
 
-use crate::film::Film;
+use crate::render::film::Film;
 use crate::scene::{Light, Scene};
 use glam::DVec3;
 use std::f64::consts::PI;
@@ -49,7 +49,7 @@ pub fn radiance_bound(scene: &Scene, min_radius: f64) -> f64 {
     let mut power = 0.0;
     let mut emitted: f64 = 0.0;
     for light in &scene.lights {
-        power += crate::emission::light_power(light) * 3.0; // mean over channels -> any channel
+        power += crate::photons::emission::light_power(light) * 3.0; // mean over channels -> any channel
         match *light {
             Light::Point {
                 position,

@@ -7,6 +7,7 @@
 //! are normalised over the unit disc, so a photon's contribution
 //! `Phi / A * K(|M (x - x_p)|)` with `A = |a x b|` integrates to exactly `Phi` over the plane.
 
+use crate::geometry::sampling::tangent_frame;
 use glam::DVec3;
 
 /// Bounds applied to every footprint. Each clamp is counted ([`Guards`]).
@@ -60,12 +61,6 @@ pub struct Footprint {
     pub area: f64,
     /// The long semi-axis (the footprint's circumradius).
     pub radius: f64,
-}
-
-/// Any unit vector orthogonal to unit `n`, and the third vector of the right-handed frame.
-pub fn tangent_frame(n: DVec3) -> (DVec3, DVec3) {
-    let t1 = n.any_orthonormal_vector();
-    (t1, n.cross(t1))
 }
 
 /// The footprint of differentials `a`, `b` on a surface of unit normal `n`, guarded by `limits`;

@@ -3,10 +3,10 @@
 //! Every problem is an error that names the file and the line or field at fault; nothing here
 //! panics on bad input.
 
-use crate::camera::Camera;
-use crate::mesh_io::load_mesh;
+use crate::scene::camera::Camera;
+use crate::scene::mesh_file::load_mesh;
+use crate::scene::shapes;
 use crate::scene::{Light, Material, Scene, SceneMesh};
-use crate::shapes;
 use glam::DVec3;
 use serde::Deserialize;
 use std::collections::BTreeMap;

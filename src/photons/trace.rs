@@ -7,14 +7,14 @@
 //! index), and emissions are collected in index order, so the maps are identical whatever the
 //! number of threads.
 
-use crate::differential::RayDifferential;
 use crate::embree;
-use crate::emission::{Emission, Emitter};
-use crate::footprint::{footprint, FootprintLimits, Guards};
-use crate::light_path::LightPaths;
-use crate::photon_map::{PathClass, Photon, PhotonMap};
-use crate::rng::Rng;
+use crate::geometry::differential::RayDifferential;
+use crate::photons::emission::{Emission, Emitter};
+use crate::photons::footprint::{footprint, FootprintLimits, Guards};
+use crate::photons::light_path::LightPaths;
+use crate::photons::map::{PathClass, Photon, PhotonMap};
 use crate::scene::Scene;
+use crate::util::rng::Rng;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::PI;
@@ -30,7 +30,7 @@ pub struct PhotonOptions {
     /// Caustic photons: photons stored in the caustic map. Default 20,000 (the thesis's count).
     /// Aimed at the specular objects, they cost about as many emissions.
     pub caustic_photons: usize,
-    /// Expected number of footprints covering a point (see [`crate::emission`]). Default 32.
+    /// Expected number of footprints covering a point (see [`crate::photons::emission`]). Default 32.
     pub overlap: f64,
     /// Maximum number of bounces of a photon path. Default 16.
     pub max_bounces: u32,

@@ -4,7 +4,7 @@
 //! `relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R)` over a region.
 
 use crate::embree::{self, Ray};
-use crate::film::{linear_to_srgb, Film};
+use crate::render::film::{linear_to_srgb, Film};
 use crate::scene::{Light, Material, Scene};
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
@@ -58,7 +58,7 @@ impl Regions {
                 };
                 let i = y * w + x;
                 diffuse.push(i);
-                let n = crate::surface::facing(hit.geometric_normal, r.d);
+                let n = crate::geometry::surface::facing(hit.geometric_normal, r.d);
                 let direct = unblocked_direct(scene, hit.position, n, albedo);
                 let value = reference.pixels[i];
                 if direct.max_element() > 0.0

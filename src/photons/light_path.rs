@@ -4,13 +4,13 @@
 //! sample the cosine lobe; the ray differential is carried along with the same code as camera
 //! rays.
 
-use crate::differential::{fresnel_dielectric, RayDifferential, Refraction};
 use crate::embree::{self, Hit, Ray};
-use crate::emission::{sample_cosine, Emission};
-use crate::footprint::tangent_frame;
-use crate::rng::Rng;
+use crate::geometry::differential::{fresnel_dielectric, RayDifferential, Refraction};
+use crate::geometry::sampling::{sample_cosine, tangent_frame};
+use crate::geometry::surface::{continuation, surface_frame, transfer_to};
+use crate::photons::emission::Emission;
 use crate::scene::{Material, Scene};
-use crate::surface::{continuation, surface_frame, transfer_to};
+use crate::util::rng::Rng;
 use glam::DVec3;
 
 /// Where a light path meets a diffuse surface.

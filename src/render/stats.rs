@@ -1,8 +1,8 @@
 //! Render statistics: time per stage and rays by kind, printed as a summary and written as JSON.
 
 use crate::estimate::GatherCounts;
-use crate::footprint::Guards;
-use crate::photon_map::PathClass;
+use crate::photons::footprint::Guards;
+use crate::photons::map::PathClass;
 use serde::Serialize;
 use std::time::Instant;
 

@@ -10,8 +10,10 @@
 //! `r^2 = |u|^2 + beta (2 u.b + beta |b|^2)` for `u = s + alpha a`: two multiply-adds per
 //! evaluation.
 
-use crate::estimate::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
-use crate::photon_map::PhotonMap;
+use super::{
+    footprint_circumradius, on_query_surface, GatherCounts, GatherQuery, RadianceEstimator,
+};
+use crate::photons::map::PhotonMap;
 use glam::{DVec3, Vec2, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
@@ -170,11 +172,6 @@ impl<'a> MultiSampledEstimate<'a> {
             offsets: sample_offsets(grid),
         }
     }
-}
-
-/// The circumradius of the parallelogram `+- f0/2 +- f1/2`.
-pub fn footprint_circumradius(f: &[DVec3; 2]) -> f64 {
-    0.5 * (f[0] + f[1]).length().max((f[0] - f[1]).length())
 }
 
 impl RadianceEstimator for MultiSampledEstimate<'_> {

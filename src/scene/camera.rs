@@ -1,6 +1,6 @@
 //! The pinhole camera and its ray differentials.
 
-use crate::differential::RayDifferential;
+use crate::geometry::differential::RayDifferential;
 use glam::DVec3;
 
 /// A pinhole camera. Pixel `(0, 0)` is the top-left; pixel `(i, j)` covers

@@ -1,8 +1,14 @@
 //! The scene as the renderer sees it: meshes with materials, lights, and one pinhole camera.
-//! Read from a file by [`crate::scene_file`]; turned into an Embree scene by [`Scene::build_embree`].
+//! Read from a file by [`file`](mod@file) (meshes by [`mesh_file`], analytic shapes by [`shapes`]);
+//! turned into an Embree scene by [`Scene::build_embree`].
 
-use crate::camera::Camera;
+pub mod camera;
+pub mod file;
+pub mod mesh_file;
+pub mod shapes;
+
 use crate::embree::{self, Device, EmbreeError, TriangleMesh};
+use camera::Camera;
 use glam::DVec3;
 
 /// A surface's scattering.
@@ -108,7 +114,7 @@ impl Light {
 /// A mesh of the scene and the material of all its triangles.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneMesh {
-    /// What the mesh came from, for messages ("shapes[2] (sphere)").
+    /// What the mesh came from, for messages ("`shapes[2]` (sphere)").
     pub name: String,
     /// The triangles.
     pub mesh: TriangleMesh,

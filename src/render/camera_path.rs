@@ -4,11 +4,11 @@
 //! choice. A branch ends at a diffuse surface, a light, a miss, the depth limit, or when its weight
 //! drops below [`MIN_BRANCH_WEIGHT`].
 
-use crate::differential::{fresnel_dielectric, RayDifferential, Refraction};
 use crate::embree::{self, Hit};
+use crate::geometry::differential::{fresnel_dielectric, RayDifferential, Refraction};
+use crate::geometry::surface::{continuation, surface_frame, transfer_to};
+use crate::render::stats::RayCounts;
 use crate::scene::{Material, Scene};
-use crate::stats::RayCounts;
-use crate::surface::{continuation, surface_frame, transfer_to};
 use glam::DVec3;
 
 /// Branches whose largest channel weight falls below this are dropped: they would change a

@@ -5,15 +5,15 @@
 //! seeded by the run's seed and the pixel index), so an image is bit-identical whatever the
 //! number of threads.
 
-use crate::direct::DirectLight;
 use crate::embree::{self, Hit, Ray, PACKET_WIDTH};
 use crate::estimate::{GatherCounts, GatherQuery, RadianceEstimator};
-use crate::film::Film;
-use crate::rng::Rng;
+use crate::geometry::surface::facing;
+use crate::render::camera_path::{DiffuseVertex, PathTally, ViewPaths};
+use crate::render::direct_light::DirectLight;
+use crate::render::film::Film;
+use crate::render::stats::{RayCounts, Stats};
 use crate::scene::Scene;
-use crate::stats::{RayCounts, Stats};
-use crate::surface::facing;
-use crate::view_path::{DiffuseVertex, PathTally, ViewPaths};
+use crate::util::rng::Rng;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -133,7 +133,7 @@ pub fn render(
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
     stats.threads = pool.current_num_threads();
-    let progress = crate::progress::bar(options.progress, tiles.len() as u64, "render");
+    let progress = crate::util::progress::bar(options.progress, tiles.len() as u64, "render");
     let invalid_before = embree.invalid_rays();
     let renderer = TileRenderer::new(scene, embree, estimators, options);
     let results: Vec<TileResult> = stats.time("render", || {

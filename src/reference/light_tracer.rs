@@ -18,11 +18,11 @@
 //! result does not depend on the number of threads.
 
 use crate::embree::{self, Ray};
-use crate::emission::Emitter;
-use crate::film::Film;
-use crate::light_path::LightPaths;
-use crate::rng::Rng;
+use crate::photons::emission::Emitter;
+use crate::photons::light_path::LightPaths;
+use crate::render::film::Film;
 use crate::scene::Scene;
+use crate::util::rng::Rng;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::FRAC_1_PI;

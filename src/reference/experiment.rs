@@ -3,12 +3,13 @@
 
 use crate::embree;
 use crate::estimate::RadianceEstimator;
-use crate::film::Film;
-use crate::lighting::{EstimatorKind, EstimatorSettings, PhotonMaps};
-use crate::photon_trace::PhotonOptions;
+use crate::estimate::{EstimatorKind, EstimatorSettings};
+use crate::photons::trace::PhotonOptions;
+use crate::photons::PhotonMaps;
+use crate::render::film::Film;
+use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
 use crate::scene::Scene;
-use crate::stats::Stats;
 
 /// One rendering method.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -2,8 +2,8 @@
 //! resolution costs minutes, so it is made once per scene, size and path count and reused.
 
 use crate::embree;
-use crate::film::Film;
-use crate::lighttrace::{LightTraceOptions, LightTraceResult, LightTracer};
+use crate::reference::light_tracer::{LightTraceOptions, LightTraceResult, LightTracer};
+use crate::render::film::Film;
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
 

@@ -1,8 +1,8 @@
 //! The local surface at a hit, oriented against the incoming ray, as the differential formulas
 //! need it. Shared by camera paths and photon paths.
 
-use crate::differential::{RayDifferential, SurfaceFrame};
 use crate::embree::{Hit, Ray};
+use crate::geometry::differential::{RayDifferential, SurfaceFrame};
 use glam::DVec3;
 
 /// The normal facing the incoming direction `d`, given a normal of either orientation.

@@ -1,7 +1,7 @@
 //! Photon maps: stored photons with their footprints, in a kd-tree (kiddo) for range and
 //! k-nearest queries.
 
-use crate::footprint::{Footprint, Guards};
+use crate::photons::footprint::{Footprint, Guards};
 use glam::{DVec3, Vec3};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
@@ -20,7 +20,7 @@ pub struct Photon {
     pub power: Vec3,
     /// Rows of its filter matrix `M` (world space).
     pub m: [Vec3; 2],
-    /// `1 / A`, `A = |a x b|` (see [`crate::footprint`]).
+    /// `1 / A`, `A = |a x b|` (see [`crate::photons::footprint`]).
     pub inv_area: f32,
     /// Its footprint's circumradius (long semi-axis).
     pub radius: f32,

@@ -2,10 +2,10 @@
 //! quad area lights, traced as 16-wide packets.
 
 use crate::embree::{self, Ray, PACKET_WIDTH};
-use crate::rng::Rng;
+use crate::geometry::surface::facing;
+use crate::render::camera_path::DiffuseVertex;
 use crate::scene::{Light, Scene};
-use crate::surface::facing;
-use crate::view_path::DiffuseVertex;
+use crate::util::rng::Rng;
 use glam::DVec3;
 use std::f64::consts::FRAC_1_PI;
 

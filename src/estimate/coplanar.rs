@@ -5,14 +5,14 @@
 //! `sum f_r Phi_p / A_p K(|M_p (c - x_p)|) w`.
 
 use crate::estimate::{
-    on_query_surface, photon_kernel, GatherCounts, GatherQuery, RadianceEstimator,
+    footprint_circumradius, on_query_surface, photon_kernel, GatherCounts, GatherQuery,
+    RadianceEstimator,
 };
-use crate::footprint::tangent_frame;
-use crate::multisampled::footprint_circumradius;
-use crate::photon_map::PhotonMap;
-use crate::polygon::{
+use crate::geometry::polygon::{
     area_centroid, ellipse_into, intersect_convex_with, parallelogram, unit_circle, ClipScratch,
 };
+use crate::geometry::sampling::tangent_frame;
+use crate::photons::map::PhotonMap;
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::FRAC_1_PI;
@@ -135,8 +135,12 @@ mod tests {
         assert!((w - 1.0).abs() < 1e-12 && c.length() < 1e-12, "{w} {c}");
         let far = parallelogram(DVec2::new(5.0, 0.0), DVec2::X, DVec2::Y);
         assert_eq!(coverage(&far, &view).0, 0.0);
-        let e =
-            crate::polygon::ellipse(DVec2::ZERO, DVec2::new(0.1, 0.0), DVec2::new(0.0, 0.05), 32);
+        let e = crate::geometry::polygon::ellipse(
+            DVec2::ZERO,
+            DVec2::new(0.1, 0.0),
+            DVec2::new(0.0, 0.05),
+            32,
+        );
         let (w, c) = coverage(&e, &e);
         assert!((w - 1.0).abs() < 1e-12 && c.length() < 1e-12);
     }

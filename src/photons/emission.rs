@@ -1,7 +1,7 @@
 //! Photon emission from point, spot and quad lights, with the emission differentials of
 //! photon differentials (Schjoth et al. 2007).
 //!
-//! Footprint convention (see [`crate::footprint`]): differentials are *radius* vectors. A light
+//! Footprint convention (see [`crate::photons::footprint`]): differentials are *radius* vectors. A light
 //! emitting `N` photons into solid angle `Omega` gives each a beam whose elliptical cross-section
 //! covers `overlap * Omega / N` steradians: `|dD/du| = |dD/dv| = sqrt(overlap Omega / (pi N))`,
 //! orthogonal to the direction, `dP = 0`. A quad light of area `A` gives each photon a disc of
@@ -15,10 +15,10 @@
 //! each photon's power is divided by the density it was drawn with, so that photons stand for
 //! exactly the emission they sample.
 
-use crate::differential::RayDifferential;
-use crate::footprint::tangent_frame;
-use crate::rng::Rng;
+use crate::geometry::differential::RayDifferential;
+use crate::geometry::sampling::{r2, sample_cone, sample_cosine, tangent_frame};
 use crate::scene::{Light, Scene};
+use crate::util::rng::Rng;
 use glam::DVec3;
 use std::f64::consts::PI;
 
@@ -52,51 +52,6 @@ fn cone(from: DVec3, target: &Target) -> (DVec3, f64) {
 
 fn cone_solid_angle(cos_max: f64) -> f64 {
     2.0 * PI * (1.0 - cos_max)
-}
-
-/// Shirley and Chiu's concentric map of the unit square onto the unit disc: equal-area and
-/// continuous, without the clustering a polar map makes at the centre.
-fn concentric_disc(u: f64, v: f64) -> (f64, f64) {
-    let (a, b) = (2.0 * u - 1.0, 2.0 * v - 1.0);
-    if a == 0.0 && b == 0.0 {
-        return (0.0, 0.0);
-    }
-    let (r, phi) = if a.abs() > b.abs() {
-        (a, PI / 4.0 * (b / a))
-    } else {
-        (b, PI / 2.0 - PI / 4.0 * (a / b))
-    };
-    (r * phi.cos(), r * phi.sin())
-}
-
-/// A unit vector in the cone of axis `w` and half-angle cosine `cos_max`, uniform in solid angle:
-/// the concentric disc lifted onto the spherical cap by the equal-area (Lambert) projection, so
-/// that well-stratified `(u, v)` give well-stratified directions, also around the axis.
-fn sample_cone(w: DVec3, cos_max: f64, u: f64, v: f64) -> DVec3 {
-    let (x, y) = concentric_disc(u, v);
-    let r2 = x * x + y * y;
-    let cos = 1.0 - r2 * (1.0 - cos_max);
-    let sin = (1.0 - cos * cos).max(0.0).sqrt();
-    let phi = y.atan2(x);
-    let (t1, t2) = tangent_frame(w);
-    (w * cos + t1 * (sin * phi.cos()) + t2 * (sin * phi.sin())).normalize()
-}
-
-/// A cosine-distributed unit vector about `n`.
-pub fn sample_cosine(n: DVec3, u: f64, v: f64) -> DVec3 {
-    let r = u.sqrt();
-    let phi = 2.0 * PI * v;
-    let (t1, t2) = tangent_frame(n);
-    (n * (1.0 - u).max(0.0).sqrt() + t1 * (r * phi.cos()) + t2 * (r * phi.sin())).normalize()
-}
-
-/// The plastic-number (R2) low-discrepancy sequence: every prefix is well stratified in 2D,
-/// so emission directions are even whatever number of photons ends up emitted.
-fn r2(index: u64, shift: [f64; 2]) -> (f64, f64) {
-    const A1: f64 = 0.754_877_666_246_692_8; // 1 / plastic number
-    const A2: f64 = 0.569_840_290_998_053_3; // 1 / plastic number^2
-    let i = index as f64;
-    ((shift[0] + i * A1).fract(), (shift[1] + i * A2).fract())
 }
 
 fn mean(c: DVec3) -> f64 {

@@ -1,0 +1,244 @@
+//! `photondiff render`: a scene file to an EXR, a PNG preview and statistics.
+
+use super::create_parent;
+use photondiff::embree::Device;
+use photondiff::estimate::{EstimatorKind, EstimatorSettings};
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
+use photondiff::render::stats::Stats;
+use photondiff::render::{render, trace_photon_maps, RenderOptions};
+use photondiff::scene::file::load_scene;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct RenderArgs {
+    /// The scene file (TOML; see README.md for the format).
+    scene: PathBuf,
+    /// Output EXR (linear float RGB, with settings and times in its metadata).
+    /// Default: out/<scene name>.exr.
+    #[arg(short = 'o', long = "output", value_name = "OUT.exr")]
+    output: Option<PathBuf>,
+    /// Output PNG preview (sRGB, clamped). Default: the EXR path with a .png extension.
+    #[arg(long, value_name = "OUT.png")]
+    png: Option<PathBuf>,
+    /// Camera rays per pixel along each axis: N x N on a regular grid, each ray's differential
+    /// spanning 1/N of the pixel, box-filtered.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+    view_grid: u32,
+    /// Worker threads (0 = one per core).
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    threads: usize,
+    /// Seed of every random stream; the same seed gives a bit-identical image on any thread count.
+    #[arg(long, value_name = "S", default_value_t = 0)]
+    seed: u64,
+    /// Write the run's statistics (times per stage, rays by kind) as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    stats_json: Option<PathBuf>,
+    /// Maximum number of mirror/glass bounces of a camera path.
+    #[arg(long, value_name = "N", default_value_t = 10)]
+    max_depth: u32,
+    /// Area-light samples per shading point along each axis (N x N stratified).
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
+    area_samples: u32,
+    /// Radiance estimate of the photon maps: `direct` (no photon maps, direct light only),
+    /// `jensen` (k nearest photons), `pd` (photon differentials), `coplanar` (photon
+    /// differentials weighted by their intersection with the view footprint) or `multisampled`
+    /// (photon differentials averaged over N x N points of the view footprint); or
+    /// `lighttrace`, the unbiased light-tracing reference (no photon maps; see --light-paths).
+    #[arg(long, value_enum, default_value_t = EstimatorKind::Pd)]
+    estimator: EstimatorKind,
+    /// Global photons: emissions traced for the global map (indirect light).
+    #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
+    global_photons: usize,
+    /// Photons stored in the caustic map.
+    #[arg(long, value_name = "N", default_value_t = 20_000)]
+    caustic_photons: usize,
+    /// Nearest photons per regular (jensen) estimate.
+    #[arg(long, value_name = "N", default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    k: u32,
+    /// Sample grid side N of the multisampled estimate (N x N points per view footprint).
+    #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=32))]
+    ms_grid: u32,
+    /// Vertices of the polygon standing for a photon's elliptical footprint (coplanar).
+    #[arg(long, value_name = "N", default_value_t = 16, value_parser = clap::value_parser!(u32).range(3..=1024))]
+    coplanar_vertices: u32,
+    /// Photon footprint size, as the expected number of footprints covering a point.
+    #[arg(long, value_name = "X", default_value_t = 32.0)]
+    overlap: f64,
+    /// Light paths traced by `--estimator lighttrace`.
+    #[arg(long, value_name = "N", default_value_t = 20_000_000)]
+    light_paths: u64,
+    /// Stop `--estimator lighttrace` after this many seconds even if fewer paths are traced.
+    #[arg(long, value_name = "SECONDS")]
+    time_budget: Option<f64>,
+    /// No progress bar and no statistics summary.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+/// Runs `photondiff render`.
+pub fn run(args: &RenderArgs) -> Result<(), String> {
+    let mut stats = Stats::default();
+    let scene = stats
+        .time("load scene", || load_scene(&args.scene))
+        .map_err(|e| e.to_string())?;
+    let device = Device::new().map_err(|e| e.to_string())?;
+    let embree = stats
+        .time("build BVH", || scene.build_embree(&device))
+        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    let options = RenderOptions::default()
+        .with_view_grid(args.view_grid)
+        .with_threads(args.threads)
+        .with_seed(args.seed)
+        .with_max_depth(args.max_depth)
+        .with_area_strata(args.area_samples)
+        .with_progress(!args.quiet && std::io::stderr().is_terminal());
+    let photon_options = PhotonOptions {
+        global_photons: args.global_photons,
+        caustic_photons: args.caustic_photons,
+        overlap: args.overlap,
+        seed: args.seed,
+        ..PhotonOptions::default()
+    };
+    if !(args.overlap.is_finite() && args.overlap > 0.0) {
+        return Err(format!(
+            "--overlap must be a positive number, got {}",
+            args.overlap
+        ));
+    }
+    if let Some(t) = args.time_budget {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(format!(
+                "--time-budget must be a positive number of seconds, got {t}"
+            ));
+        }
+    }
+    let maps = match args.estimator {
+        EstimatorKind::Direct | EstimatorKind::Lighttrace => None,
+        _ => Some(trace_photon_maps(
+            &scene,
+            &embree,
+            &photon_options,
+            args.threads,
+            options.progress,
+            &mut stats,
+        )?),
+    };
+    let settings = EstimatorSettings {
+        kind: args.estimator,
+        k: args.k as usize,
+        max_radius: photon_options.limits(&scene).max_radius,
+        ms_grid: args.ms_grid,
+        ellipse_vertices: args.coplanar_vertices as usize,
+    };
+    let estimators = maps
+        .as_ref()
+        .map(|m| m.estimators(&settings))
+        .unwrap_or_default();
+    let refs: Vec<&dyn photondiff::estimate::RadianceEstimator> =
+        estimators.iter().map(|e| e.as_ref()).collect();
+    let film = if args.estimator == EstimatorKind::Lighttrace {
+        let lt_options = LightTraceOptions {
+            paths: args.light_paths,
+            time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
+            seed: args.seed,
+            ..LightTraceOptions::default()
+        };
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(args.threads)
+            .build()
+            .map_err(|e| format!("cannot start worker threads: {e}"))?;
+        stats.threads = pool.current_num_threads();
+        let bar = photondiff::util::progress::bar(options.progress, args.light_paths, "light");
+        let tracer = LightTracer::new(&scene, &embree, &lt_options);
+        let result = stats.time("render", || pool.install(|| tracer.run(&bar)));
+        bar.finish_and_clear();
+        let all: Vec<usize> = (0..result.film.pixels.len())
+            .filter(|&i| result.film.pixels[i].max_element() > 0.0)
+            .collect();
+        stats.light_paths = result.paths;
+        stats.light_rays = result.rays;
+        stats.reference_noise = result.relative_noise(&all);
+        result.film
+    } else {
+        render(&scene, &embree, &refs, &options, &mut stats)?
+    };
+
+    let stem = args
+        .scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "render".into());
+    let exr = args
+        .output
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(format!("{stem}.exr")));
+    let png = args
+        .png
+        .clone()
+        .unwrap_or_else(|| exr.with_extension("png"));
+    let metadata = vec![
+        (
+            "photondiff/scene".to_string(),
+            args.scene.display().to_string(),
+        ),
+        (
+            "photondiff/view_grid".to_string(),
+            args.view_grid.to_string(),
+        ),
+        (
+            "photondiff/estimator".to_string(),
+            format!("{:?}", args.estimator).to_lowercase(),
+        ),
+        (
+            "photondiff/photons".to_string(),
+            args.global_photons.to_string(),
+        ),
+        (
+            "photondiff/caustic_photons".to_string(),
+            args.caustic_photons.to_string(),
+        ),
+        ("photondiff/k".to_string(), args.k.to_string()),
+        ("photondiff/ms_grid".to_string(), args.ms_grid.to_string()),
+        (
+            "photondiff/coplanar_vertices".to_string(),
+            args.coplanar_vertices.to_string(),
+        ),
+        ("photondiff/overlap".to_string(), args.overlap.to_string()),
+        ("photondiff/seed".to_string(), args.seed.to_string()),
+        (
+            "photondiff/max_depth".to_string(),
+            args.max_depth.to_string(),
+        ),
+        (
+            "photondiff/area_samples".to_string(),
+            args.area_samples.to_string(),
+        ),
+        ("photondiff/threads".to_string(), stats.threads.to_string()),
+        (
+            "photondiff/render_seconds".to_string(),
+            format!("{:.6}", stats.seconds("render")),
+        ),
+        (
+            "photondiff/stats".to_string(),
+            serde_json::to_string(&stats).unwrap_or_default(),
+        ),
+    ];
+    create_parent(&exr)?;
+    create_parent(&png)?;
+    stats.time("write images", || -> Result<(), String> {
+        film.write_exr(&exr, &metadata)?;
+        film.write_png(&png)
+    })?;
+    if let Some(path) = &args.stats_json {
+        create_parent(path)?;
+        let json = serde_json::to_string_pretty(&stats).map_err(|e| e.to_string())?;
+        std::fs::write(path, json).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    }
+    if !args.quiet {
+        eprint!("{}", stats.summary());
+    }
+    println!("wrote {} and {}", exr.display(), png.display());
+    Ok(())
+}

@@ -1,0 +1,52 @@
+//! The regular photon-map estimate (Jensen): the k nearest photons, a normalised kernel.
+
+use super::{same_side, GatherCounts, GatherQuery, RadianceEstimator};
+use crate::photons::map::PhotonMap;
+use glam::{DVec3, Vec3};
+use std::f64::consts::FRAC_1_PI;
+
+/// The regular estimate (Jensen): the `k` nearest photons within `max_radius`, an Epanechnikov
+/// kernel normalised over the disc through the farthest of them (or of `max_radius` when fewer
+/// than `k` are found). Photons farther than a tenth of the radius off the query's tangent
+/// plane (a flattened sphere) or facing another way are left out.
+pub struct JensenEstimate<'a> {
+    /// The map.
+    pub map: &'a PhotonMap,
+    /// Number of nearest photons.
+    pub k: usize,
+    /// Largest gather radius.
+    pub max_radius: f64,
+}
+
+impl RadianceEstimator for JensenEstimate<'_> {
+    fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
+        counts.gathers += 1;
+        let mut found = Vec::with_capacity(self.k);
+        self.map
+            .nearest(q.position, self.k, self.max_radius, &mut found);
+        counts.photons_found += found.len() as u64;
+        if found.is_empty() {
+            return DVec3::ZERO;
+        }
+        let r2 = if found.len() < self.k {
+            (self.max_radius * self.max_radius) as f32
+        } else {
+            found[found.len() - 1].0.max(1e-12)
+        };
+        let x = q.position.as_vec3();
+        let n = q.normal.as_vec3();
+        let thickness = 0.1 * r2.sqrt();
+        let mut sum = Vec3::ZERO;
+        for &(d2, i) in &found {
+            let p = &self.map.photons[i as usize];
+            if !same_side(p.normal, n) || n.dot(p.position - x).abs() > thickness || d2 >= r2 {
+                continue;
+            }
+            counts.photons_used += 1;
+            sum += p.power * (1.0 - d2 / r2);
+        }
+        // (2 / pi) / r^2 normalises the kernel over the disc; albedo / pi is the BRDF.
+        let kernel = std::f64::consts::FRAC_2_PI / r2 as f64;
+        q.albedo * FRAC_1_PI * sum.as_dvec3() * kernel
+    }
+}

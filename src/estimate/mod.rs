@@ -1,0 +1,97 @@
+//! Radiance estimates from photon maps, behind one interface: every estimator answers the
+//! radiance reflected towards the camera at a diffuse hit, given the hit's view footprint.
+//!
+//! Each estimator is one file: [`jensen`] (k nearest photons), [`pd`] (photon differentials),
+//! [`coplanar`] and [`multisampled`] (photon differentials with the view footprint). [`select`]
+//! turns the command line's choice into estimators over the photon maps.
+
+pub mod coplanar;
+pub mod jensen;
+pub mod multisampled;
+pub mod pd;
+pub mod select;
+
+pub use coplanar::CoplanarEstimate;
+pub use jensen::JensenEstimate;
+pub use multisampled::MultiSampledEstimate;
+pub use pd::PhotonDifferentialEstimate;
+pub use select::{EstimatorKind, EstimatorSettings};
+
+use crate::photons::map::Photon;
+use glam::{DVec3, Vec3};
+use serde::Serialize;
+
+/// A diffuse hit as the estimators see it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GatherQuery {
+    /// The hit point.
+    pub position: DVec3,
+    /// Unit geometric normal facing the viewer.
+    pub normal: DVec3,
+    /// Diffuse albedo (the BRDF is `albedo / pi`).
+    pub albedo: DVec3,
+    /// The camera ray's footprint at the hit: the parallelogram `x +- f[0]/2 +- f[1]/2`.
+    pub footprint: [DVec3; 2],
+}
+
+/// What gathering cost, for the statistics.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize)]
+pub struct GatherCounts {
+    /// Estimates computed.
+    pub gathers: u64,
+    /// Photons returned by the map queries.
+    pub photons_found: u64,
+    /// Photons that contributed (inside their kernel's support, on the right side).
+    pub photons_used: u64,
+}
+
+impl GatherCounts {
+    /// Adds `other` into `self`.
+    pub fn add(&mut self, other: &GatherCounts) {
+        self.gathers += other.gathers;
+        self.photons_found += other.photons_found;
+        self.photons_used += other.photons_used;
+    }
+}
+
+/// A radiance estimate from a photon map.
+pub trait RadianceEstimator: Sync {
+    /// Radiance reflected towards the camera at `query`.
+    fn radiance(&self, query: &GatherQuery, counts: &mut GatherCounts) -> DVec3;
+}
+
+/// Photons stored on a surface facing another way than the query's (the other side of a thin
+/// wall, a sharp edge) do not contribute: the cosine between the normals must exceed this.
+pub const MIN_NORMAL_COSINE: f32 = 0.7;
+
+/// Whether photon normal `n_p` agrees with the query normal.
+#[inline]
+pub(crate) fn same_side(n_p: Vec3, n_x: Vec3) -> bool {
+    n_p.dot(n_x) > MIN_NORMAL_COSINE
+}
+
+/// Whether photon `p`, at offset `v = x - x_p` from a query of normal `n_x`, lies on the query's
+/// surface: facing the same way, and off the photon's tangent plane by at most a tenth of its
+/// radius. Shared by every footprint-based estimator.
+#[inline]
+pub fn on_query_surface(p: &Photon, v: Vec3, n_x: Vec3) -> bool {
+    same_side(p.normal, n_x) && p.normal.dot(v).abs() <= 0.1 * p.radius
+}
+
+/// `Phi_p / A_p K(|M_p v|)` for a photon at offset `v = x - x_p`, or `None` outside its
+/// support or on the wrong side.
+#[inline]
+pub fn photon_kernel(p: &Photon, v: Vec3, n_x: Vec3) -> Option<Vec3> {
+    if !on_query_surface(p, v, n_x) {
+        return None;
+    }
+    let s0 = p.m[0].dot(v);
+    let s1 = p.m[1].dot(v);
+    let r2 = s0 * s0 + s1 * s1;
+    (r2 < 1.0).then(|| p.power * (p.inv_area * std::f32::consts::FRAC_2_PI * (1.0 - r2)))
+}
+
+/// The circumradius of the parallelogram `+- f0/2 +- f1/2`.
+pub fn footprint_circumradius(f: &[DVec3; 2]) -> f64 {
+    0.5 * (f[0] + f[1]).length().max((f[0] - f[1]).length())
+}

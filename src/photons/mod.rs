@@ -1,0 +1,19 @@
+//! Photon tracing: emission from the lights with emission differentials ([`emission`]), light
+//! paths through the scene ([`light_path`]), the photons they store ([`trace`]), each with its
+//! footprint ([`footprint`]), gathered into photon maps ([`map`]).
+
+pub mod emission;
+pub mod footprint;
+pub mod light_path;
+pub mod map;
+pub mod trace;
+
+use map::PhotonMap;
+
+/// The caustic and global photon maps of a scene.
+pub struct PhotonMaps {
+    /// Light -> specular+ -> diffuse.
+    pub caustic: PhotonMap,
+    /// After at least one diffuse bounce.
+    pub global: PhotonMap,
+}

@@ -1,0 +1,10 @@
+//! Measurement rather than rendering: the unbiased light tracer ([`light_tracer`]) and its cached
+//! references ([`cache`]), accuracy metrics and image regions ([`metrics`]), the bounds every
+//! method must respect ([`stability`]), and methods as the experiments name them
+//! ([`experiment`]).
+
+pub mod cache;
+pub mod experiment;
+pub mod light_tracer;
+pub mod metrics;
+pub mod stability;

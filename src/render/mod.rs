@@ -1,0 +1,14 @@
+//! Rendering an image: the photon pass ([`photon_pass`]), then camera paths through mirrors and
+//! glass ([`camera_path`]) to diffuse hits, where direct light ([`direct_light`]) and the photon
+//! maps' estimates are summed into the film ([`film`]) by the rendering loop ([`image`]); every
+//! stage is timed and counted in the statistics ([`stats`]).
+
+pub mod camera_path;
+pub mod direct_light;
+pub mod film;
+pub mod image;
+pub mod photon_pass;
+pub mod stats;
+
+pub use image::{render, RenderOptions, TILE_SIZE};
+pub use photon_pass::trace_photon_maps;
