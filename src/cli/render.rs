@@ -5,8 +5,9 @@ use photondiff::embree::Device;
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
+use photondiff::render::passes::{PassReport, DEFAULT_ALPHA};
 use photondiff::render::stats::Stats;
-use photondiff::render::{render, trace_photon_maps, RenderOptions};
+use photondiff::render::{Progressive, RenderOptions, StopRules};
 use photondiff::scene::file::load_scene;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
@@ -69,9 +70,23 @@ pub struct RenderArgs {
     /// Light paths traced by `--estimator lighttrace`.
     #[arg(long, value_name = "N", default_value_t = 20_000_000)]
     light_paths: u64,
-    /// Stop `--estimator lighttrace` after this many seconds even if fewer paths are traced.
-    #[arg(long, value_name = "SECONDS")]
+    /// Progressive passes: the image is the mean of N independent passes (fresh photons with
+    /// shrinking footprints, jittered camera rays). Default 1, or no limit with --time-budget
+    /// or --target-noise.
+    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    passes: Option<String>,
+    /// Photon estimates and `direct`: stop after the last whole pass that fits in SECONDS (at
+    /// least one pass). `lighttrace`: stop after SECONDS even if fewer paths are traced.
+    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     time_budget: Option<f64>,
+    /// Stop the passes once the estimated relative standard error of the mean (the larger of
+    /// the whole image's and the caustic's) falls below X, e.g. 0.01.
+    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    target_noise: Option<f64>,
+    /// Footprint schedule of the passes: pass i+1's footprint area is (i + ALPHA) / (i + 1)
+    /// times pass i's (i from 1), ALPHA in (0, 1).
+    #[arg(long, value_name = "ALPHA", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
+    alpha: f64,
     /// No progress bar and no statistics summary.
     #[arg(short, long)]
     quiet: bool,
@@ -79,6 +94,7 @@ pub struct RenderArgs {
 
 /// Runs `photondiff render`.
 pub fn run(args: &RenderArgs) -> Result<(), String> {
+    let stop = stop_rules(args)?;
     let mut stats = Stats::default();
     let scene = stats
         .time("load scene", || load_scene(&args.scene))
@@ -107,24 +123,6 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             args.overlap
         ));
     }
-    if let Some(t) = args.time_budget {
-        if !(t.is_finite() && t > 0.0) {
-            return Err(format!(
-                "--time-budget must be a positive number of seconds, got {t}"
-            ));
-        }
-    }
-    let maps = match args.estimator {
-        EstimatorKind::Direct | EstimatorKind::Lighttrace => None,
-        _ => Some(trace_photon_maps(
-            &scene,
-            &embree,
-            &photon_options,
-            args.threads,
-            options.progress,
-            &mut stats,
-        )?),
-    };
     let settings = EstimatorSettings {
         kind: args.estimator,
         k: args.k as usize,
@@ -132,12 +130,6 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ms_grid: args.ms_grid,
         ellipse_vertices: args.coplanar_vertices as usize,
     };
-    let estimators = maps
-        .as_ref()
-        .map(|m| m.estimators(&settings))
-        .unwrap_or_default();
-    let refs: Vec<&dyn photondiff::estimate::RadianceEstimator> =
-        estimators.iter().map(|e| e.as_ref()).collect();
     let film = if args.estimator == EstimatorKind::Lighttrace {
         let lt_options = LightTraceOptions {
             paths: args.light_paths,
@@ -162,7 +154,16 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         stats.reference_noise = result.relative_noise(&all);
         result.film
     } else {
-        render(&scene, &embree, &refs, &options, &mut stats)?
+        let progressive = Progressive {
+            scene: &scene,
+            embree: &embree,
+            photons: photon_options,
+            estimator: settings,
+            render: options.clone(),
+            alpha: args.alpha,
+        };
+        let sum = progressive.run(&stop, options.progress, &mut stats)?;
+        sum.mean()
     };
 
     let stem = args
@@ -178,7 +179,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         .png
         .clone()
         .unwrap_or_else(|| exr.with_extension("png"));
-    let metadata = vec![
+    let mut metadata = vec![
         (
             "photondiff/scene".to_string(),
             args.scene.display().to_string(),
@@ -225,6 +226,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             serde_json::to_string(&stats).unwrap_or_default(),
         ),
     ];
+    if let Some(p) = &stats.progressive {
+        metadata.extend(pass_metadata(p));
+    }
     create_parent(&exr)?;
     create_parent(&png)?;
     stats.time("write images", || -> Result<(), String> {
@@ -241,4 +245,70 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     println!("wrote {} and {}", exr.display(), png.display());
     Ok(())
+}
+
+/// Checks the pass options and turns them into stop rules (for photon estimates and `direct`).
+fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
+    let passes = match &args.passes {
+        None => None,
+        Some(text) => match text.trim().parse::<u64>() {
+            Ok(n) if n >= 1 => Some(n),
+            _ => {
+                return Err(format!(
+                    "--passes must be a whole number of at least 1, got {text}"
+                ))
+            }
+        },
+    };
+    if let Some(t) = args.time_budget {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(format!(
+                "--time-budget must be a positive number of seconds, got {t}"
+            ));
+        }
+    }
+    if let Some(x) = args.target_noise {
+        if !(x.is_finite() && x > 0.0) {
+            return Err(format!(
+                "--target-noise must be a positive relative standard error (e.g. 0.01), got {x}"
+            ));
+        }
+    }
+    if !(args.alpha > 0.0 && args.alpha < 1.0) {
+        return Err(format!("--alpha must be in (0, 1), got {}", args.alpha));
+    }
+    if args.estimator == EstimatorKind::Lighttrace
+        && (args.passes.is_some() || args.target_noise.is_some())
+    {
+        return Err(
+            "--passes and --target-noise do not apply to --estimator lighttrace (it takes \
+             --light-paths and --time-budget)"
+                .to_string(),
+        );
+    }
+    let open = args.time_budget.is_some() || args.target_noise.is_some();
+    Ok(StopRules {
+        passes: passes.or(if open { None } else { Some(1) }),
+        time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
+        target_noise: args.target_noise,
+    })
+}
+
+/// The EXR attributes of a progressive render.
+fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
+    let opt = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.6}"));
+    vec![
+        ("photondiff/passes".to_string(), p.passes.to_string()),
+        ("photondiff/alpha".to_string(), p.alpha.to_string()),
+        (
+            "photondiff/passes_stopped_by".to_string(),
+            format!("{:?}", p.stop).to_lowercase(),
+        ),
+        ("photondiff/noise_whole".to_string(), opt(p.noise.whole)),
+        ("photondiff/noise_caustic".to_string(), opt(p.noise.caustic)),
+        (
+            "photondiff/noise_caustic_pixels".to_string(),
+            p.noise.caustic_pixels.to_string(),
+        ),
+    ]
 }

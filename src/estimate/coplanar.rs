@@ -64,6 +64,10 @@ thread_local! {
 }
 
 impl RadianceEstimator for CoplanarEstimate<'_> {
+    fn integrates_view_footprint(&self) -> bool {
+        true
+    }
+
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
         counts.gathers += 1;
         let reach = footprint_circumradius(&q.footprint);

@@ -58,6 +58,14 @@ impl GatherCounts {
 pub trait RadianceEstimator: Sync {
     /// Radiance reflected towards the camera at `query`.
     fn radiance(&self, query: &GatherQuery, counts: &mut GatherCounts) -> DVec3;
+
+    /// Whether the estimate integrates over the view footprint (rather than reading one point).
+    /// A jittered camera ray then gathers over its cell's own footprint, centred where the
+    /// cell's centre would be: the jitter serves visibility and direct light, and the
+    /// footprint stays the box filter's (see `render::passes`).
+    fn integrates_view_footprint(&self) -> bool {
+        false
+    }
 }
 
 /// Photons stored on a surface facing another way than the query's (the other side of a thin

@@ -175,6 +175,11 @@ impl<'a> MultiSampledEstimate<'a> {
 }
 
 impl RadianceEstimator for MultiSampledEstimate<'_> {
+    fn integrates_view_footprint(&self) -> bool {
+        // One sample is the footprint's centre: a point estimate, like `pd`.
+        self.grid > 1
+    }
+
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
         counts.gathers += 1;
         let f = [q.footprint[0].as_vec3(), q.footprint[1].as_vec3()];

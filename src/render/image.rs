@@ -36,6 +36,10 @@ pub struct RenderOptions {
     pub threads: usize,
     /// Whether to show a progress bar on standard error. Default false.
     pub progress: bool,
+    /// Where in its cell of the view grid each camera ray passes, in `[0, 1)^2` of the cell.
+    /// Default `[0.5, 0.5]`: the centre. Progressive passes move it from pass to pass
+    /// ([`crate::render::passes`]).
+    pub jitter: [f64; 2],
 }
 
 impl Default for RenderOptions {
@@ -47,6 +51,7 @@ impl Default for RenderOptions {
             seed: 0,
             threads: 0,
             progress: false,
+            jitter: [0.5, 0.5],
         }
     }
 }
@@ -82,11 +87,28 @@ impl RenderOptions {
         self.progress = progress;
         self
     }
+    /// Sets [`RenderOptions::jitter`].
+    pub fn with_jitter(mut self, jitter: [f64; 2]) -> Self {
+        self.jitter = jitter;
+        self
+    }
+}
+
+/// A rendered image and where the first estimator (the caustic map's, as
+/// [`crate::photons::PhotonMaps::estimators`] orders them) contributed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderedImage {
+    /// The image.
+    pub film: Film,
+    /// Per pixel (row-major): whether the first estimator returned non-zero radiance for any of
+    /// the pixel's camera rays. All false without estimators.
+    pub reach: Vec<bool>,
 }
 
 /// What one tile produced.
 struct TileResult {
     pixels: Vec<DVec3>,
+    reach: Vec<bool>,
     rays: RayCounts,
     cut_at_max_depth: u64,
     gathers: GatherCounts,
@@ -111,6 +133,17 @@ pub fn render(
     options: &RenderOptions,
     stats: &mut Stats,
 ) -> Result<Film, String> {
+    render_image(scene, embree, estimators, options, stats).map(|r| r.film)
+}
+
+/// [`render`], also returning where the first estimator contributed.
+pub fn render_image(
+    scene: &Scene,
+    embree: &embree::Scene,
+    estimators: &[&dyn RadianceEstimator],
+    options: &RenderOptions,
+    stats: &mut Stats,
+) -> Result<RenderedImage, String> {
     if !(1..=64).contains(&options.view_grid) {
         return Err(format!(
             "view grid must be in 1..=64, got {}",
@@ -150,18 +183,20 @@ pub fn render(
     });
     progress.finish_and_clear();
     let mut film = Film::new(width, height);
+    let mut reach = vec![false; film.pixels.len()];
     for (tile, result) in tiles.iter().zip(&results) {
         let tw = (tile.x1 - tile.x0) as usize;
         for (k, p) in result.pixels.iter().enumerate() {
             let (x, y) = (tile.x0 + (k % tw) as u32, tile.y0 + (k / tw) as u32);
             film.pixels[(y * width + x) as usize] = *p;
+            reach[(y * width + x) as usize] = result.reach[k];
         }
         stats.rays.add(&result.rays);
         stats.paths_cut_at_max_depth += result.cut_at_max_depth;
         stats.gathers.add(&result.gathers);
     }
     stats.invalid_rays += embree.invalid_rays() - invalid_before;
-    Ok(film)
+    Ok(RenderedImage { film, reach })
 }
 
 /// Renders tiles; shared read-only by all workers.
@@ -203,9 +238,11 @@ impl<'a> TileRenderer<'a> {
     }
 
     /// Camera samples of a tile in 4 x 4 pixel blocks, so that each packet of 16 rays is
-    /// coherent: `(pixel index in tile, x, y)` in continuous pixel coordinates.
+    /// coherent: `(pixel index in tile, x, y)` in continuous pixel coordinates, each at the
+    /// options' jitter within its cell of the view grid.
     fn samples(&self, tile: Tile) -> Vec<(usize, f64, f64)> {
         let n = self.options.view_grid;
+        let [jx, jy] = self.options.jitter;
         let tw = tile.x1 - tile.x0;
         let mut samples = Vec::new();
         for by in (tile.y0..tile.y1).step_by(4) {
@@ -217,8 +254,8 @@ impl<'a> TileRenderer<'a> {
                             for i in 0..n {
                                 samples.push((
                                     pixel,
-                                    x as f64 + (i as f64 + 0.5) / n as f64,
-                                    y as f64 + (j as f64 + 0.5) / n as f64,
+                                    x as f64 + (i as f64 + jx) / n as f64,
+                                    y as f64 + (j as f64 + jy) / n as f64,
                                 ));
                             }
                         }
@@ -235,6 +272,7 @@ impl<'a> TileRenderer<'a> {
         let share = 1.0 / (n * n) as f64;
         let tw = (tile.x1 - tile.x0) as usize;
         let mut pixels = vec![DVec3::ZERO; tw * (tile.y1 - tile.y0) as usize];
+        let mut reach = vec![false; pixels.len()];
         let samples = self.samples(tile);
         let mut tally = PathTally::default();
         let mut gathers = GatherCounts::default();
@@ -273,6 +311,7 @@ impl<'a> TileRenderer<'a> {
             }
             tally.rays.shadow += self.direct.add(&vertices, &mut rng, &mut radiance);
             if !self.estimators.is_empty() {
+                let [jx, jy] = self.options.jitter;
                 for v in &vertices {
                     let query = GatherQuery {
                         position: v.hit.position,
@@ -280,8 +319,23 @@ impl<'a> TileRenderer<'a> {
                         albedo: v.albedo,
                         footprint: v.ray.dp,
                     };
-                    for estimator in self.estimators {
-                        radiance[v.sample] += v.weight * estimator.radiance(&query, &mut gathers);
+                    // The footprint of the ray's cell, to first order: where the cell's centre
+                    // ray would have hit (the hit itself when centred).
+                    let mut centred = query;
+                    if [jx, jy] != [0.5, 0.5] {
+                        centred.position -= v.ray.dp[0] * (jx - 0.5) + v.ray.dp[1] * (jy - 0.5);
+                    }
+                    for (k, estimator) in self.estimators.iter().enumerate() {
+                        let at = if estimator.integrates_view_footprint() {
+                            &centred
+                        } else {
+                            &query
+                        };
+                        let l = estimator.radiance(at, &mut gathers);
+                        if k == 0 && l != DVec3::ZERO {
+                            reach[chunk[v.sample].0] = true;
+                        }
+                        radiance[v.sample] += v.weight * l;
                     }
                 }
             }
@@ -291,6 +345,7 @@ impl<'a> TileRenderer<'a> {
         }
         TileResult {
             pixels,
+            reach,
             rays: tally.rays,
             cut_at_max_depth: tally.cut_at_max_depth,
             gathers,

@@ -3,6 +3,7 @@
 use crate::estimate::GatherCounts;
 use crate::photons::footprint::Guards;
 use crate::photons::map::PathClass;
+use crate::render::passes::PassReport;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -63,6 +64,9 @@ pub struct Stats {
     pub light_rays: u64,
     /// The reference's estimated relative noise over its lit pixels, from its two halves.
     pub reference_noise: f64,
+    /// Progressive passes: how many, why they stopped, the noise estimate (absent for the
+    /// light tracer).
+    pub progressive: Option<PassReport>,
 }
 
 /// How one photon map was made.
@@ -101,6 +105,42 @@ impl Stats {
             .filter(|s| s.name == name)
             .map(|s| s.seconds)
             .sum()
+    }
+
+    /// Adds one progressive pass's statistics: stages add up by name, counts add up, and photon
+    /// maps add up by class (their power too, until [`Stats::finish_passes`] averages it).
+    pub fn absorb_pass(&mut self, pass: Stats) {
+        for stage in pass.stages {
+            match self.stages.iter_mut().find(|s| s.name == stage.name) {
+                Some(s) => s.seconds += stage.seconds,
+                None => self.stages.push(stage),
+            }
+        }
+        self.rays.add(&pass.rays);
+        self.invalid_rays += pass.invalid_rays;
+        self.paths_cut_at_max_depth += pass.paths_cut_at_max_depth;
+        self.threads = self.threads.max(pass.threads);
+        self.gathers.add(&pass.gathers);
+        for map in pass.photon_maps {
+            match self.photon_maps.iter_mut().find(|m| m.class == map.class) {
+                Some(m) => {
+                    m.emitted += map.emitted;
+                    m.stored += map.stored;
+                    m.rays += map.rays;
+                    m.power += map.power;
+                    m.guards.add(&map.guards);
+                }
+                None => self.photon_maps.push(map),
+            }
+        }
+    }
+
+    /// After `passes` passes were absorbed: map powers become the mean over the passes (the
+    /// other map counts stay totals).
+    pub fn finish_passes(&mut self, passes: u64) {
+        for m in &mut self.photon_maps {
+            m.power /= passes.max(1) as f64;
+        }
     }
 
     /// A human-readable summary.
@@ -151,6 +191,18 @@ impl Stats {
             out += &format!(
                 "  light tracing: {} paths, {} rays, estimated relative noise {:.4} over lit pixels\n",
                 self.light_paths, self.light_rays, self.reference_noise
+            );
+        }
+        if let Some(p) = &self.progressive {
+            out += &format!(
+                "  progressive: {} passes ({:.3} s each, stopped by {:?}), alpha {:.3}, last \
+                 footprint area factor {:.4}; noise of the mean {}\n",
+                p.passes,
+                p.seconds_per_pass,
+                p.stop,
+                p.alpha,
+                p.last_area_factor,
+                p.noise.describe()
             );
         }
         if self.paths_cut_at_max_depth > 0 {

@@ -17,3 +17,27 @@ pub fn bar(visible: bool, total: u64, stage: &str) -> ProgressBar {
     bar.set_prefix(stage.to_string());
     bar
 }
+
+/// A progress bar over progressive passes (`total` of them, or an open count), whose message
+/// the pass loop sets to the time left and the noise estimate.
+pub fn pass_bar(visible: bool, total: Option<u64>) -> ProgressBar {
+    if !visible {
+        return ProgressBar::hidden();
+    }
+    let (bar, template) = match total {
+        Some(n) => (
+            ProgressBar::new(n),
+            "{prefix:>8} [{bar:30}] {pos}/{len} passes, {elapsed_precise}, {msg}",
+        ),
+        None => (
+            ProgressBar::no_length(),
+            "{prefix:>8} {pos} passes, {elapsed_precise}, {msg}",
+        ),
+    };
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar.set_prefix("passes");
+    bar.enable_steady_tick(std::time::Duration::from_millis(250));
+    bar
+}

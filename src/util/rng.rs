@@ -15,6 +15,17 @@ fn splitmix64(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// The seed of sub-run `index` of a run seeded `seed` (e.g. a progressive pass): `seed` itself
+/// for index 0, so that a one-pass run is the run it always was, and a well-mixed function of
+/// both otherwise.
+pub fn derive_seed(seed: u64, index: u64) -> u64 {
+    if index == 0 {
+        seed
+    } else {
+        splitmix64(splitmix64(seed ^ 0x005E_ED0F_9A55) ^ splitmix64(index))
+    }
+}
+
 impl Rng {
     /// The stream for `(seed, index)`: e.g. a run's seed and a pixel or photon number.
     pub fn new(seed: u64, index: u64) -> Self {

@@ -1,0 +1,267 @@
+//! Progressive passes: the image as the running mean of independent passes whose photon
+//! footprints shrink, so that both the noise and the bias of the photon estimates vanish
+//! (probabilistic progressive photon mapping, Knaus and Zwicker 2011).
+//!
+//! Pass `i` (from 0) depends only on the run's seed, `i` and the settings, never on the passes
+//! before it, so any range of passes can be rendered alone and its [`PassSum`] merged with the
+//! others' into the image of one run, bit for bit:
+//! - **photons**: fresh caustic and global maps traced with seed [`derive_seed`]`(seed, i)` (the
+//!   run's seed itself for pass 0);
+//! - **footprint schedule**: every footprint's area is multiplied by
+//!   `s_i = prod_{j=1..i} (j + alpha) / (j + 1)` (`s_0 = 1`; Knaus and Zwicker's
+//!   `r_{j+1}^2 / r_j^2 = (j + alpha) / (j + 1)`, the footprint area playing `r^2`). Photon
+//!   differentials are linear in the emission differentials, so scaling the overlap by `s_i`
+//!   scales every footprint's area by `s_i`; the guards' smallest and largest radius scale by
+//!   `sqrt(s_i)` with it (otherwise the clamps would stop the shrinking). `jensen` has no
+//!   footprints: its largest radius scales by `sqrt(s_i)` and its `k` by `s_i` (at least 2),
+//!   which shrinks its gather area at the same rate. With `alpha` in (0, 1) the variance of the
+//!   mean of `N` passes falls as `N^-alpha` and the bias as `N^(alpha - 1)`;
+//! - **camera jitter**: pass `i` moves every camera ray to the point `R2(i)` of the plastic
+//!   (R2) low-discrepancy sequence shifted to start at the cell's centre, `(0.5, 0.5)`, within
+//!   its cell of the view grid (the pixel for a grid of 1). The point is the same for every
+//!   pixel: each pass is an image sampled on a shifted grid, and over passes the offsets stratify
+//!   the pixel, so edges and silhouettes converge to the box-filtered pixel. A ray's view
+//!   footprint keeps its cell's size; estimates that integrate over it
+//!   ([`crate::estimate::RadianceEstimator::integrates_view_footprint`]) gather over the cell's
+//!   own footprint (moved back to the cell's centre), which keeps their box filter from widening
+//!   into a tent. Pass 0 is centred: one pass is exactly the render without passes;
+//! - area-light samples use the pass's seed.
+
+use crate::embree;
+use crate::estimate::{EstimatorKind, EstimatorSettings, RadianceEstimator};
+use crate::geometry::sampling::r2;
+use crate::photons::trace::PhotonOptions;
+use crate::render::image::{render_image, RenderOptions, RenderedImage};
+use crate::render::noise::NoiseEstimate;
+use crate::render::pass_sum::PassSum;
+use crate::render::photon_pass::trace_photon_maps;
+use crate::render::stats::Stats;
+use crate::scene::Scene;
+use crate::util::rng::derive_seed;
+use serde::Serialize;
+use std::ops::Range;
+use std::time::{Duration, Instant};
+
+/// Default `alpha` of the footprint schedule.
+pub const DEFAULT_ALPHA: f64 = 2.0 / 3.0;
+
+/// The footprint area factor of pass `pass`: `prod_{j=1..pass} (j + alpha) / (j + 1)`.
+pub fn area_factor(alpha: f64, pass: u64) -> f64 {
+    (1..=pass).fold(1.0, |s, j| s * (j as f64 + alpha) / (j as f64 + 1.0))
+}
+
+/// The camera jitter of pass `pass` within a view-grid cell (`(0.5, 0.5)` for pass 0).
+pub fn jitter(pass: u64) -> [f64; 2] {
+    let (u, v) = r2(pass, [0.5, 0.5]);
+    [u, v]
+}
+
+/// When a progressive render stops: after `passes` passes, before a pass that would end after
+/// `time_budget`, or once the noise estimate falls below `target_noise`, whichever comes first.
+/// At least one pass is rendered.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct StopRules {
+    /// Largest number of passes (`None`: no limit).
+    pub passes: Option<u64>,
+    /// Time for all passes (photon tracing and rendering; not loading or writing).
+    pub time_budget: Option<Duration>,
+    /// Relative standard error ([`NoiseEstimate::worst`]) to reach.
+    pub target_noise: Option<f64>,
+}
+
+/// Why a progressive render stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// The number of passes asked for was rendered.
+    Passes,
+    /// Another pass would not have fitted the time budget.
+    TimeBudget,
+    /// The noise estimate fell below the target.
+    TargetNoise,
+}
+
+/// What a progressive render reports (in the statistics and the EXR metadata).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct PassReport {
+    /// Passes rendered.
+    pub passes: u64,
+    /// The schedule's `alpha`.
+    pub alpha: f64,
+    /// The footprint area factor of the last pass.
+    pub last_area_factor: f64,
+    /// Why it stopped.
+    pub stop: StopReason,
+    /// Mean wall-clock seconds per pass.
+    pub seconds_per_pass: f64,
+    /// The noise of the mean, estimated from the passes.
+    pub noise: NoiseEstimate,
+}
+
+/// A progressive render's settings: everything pass `i` depends on besides `i`.
+pub struct Progressive<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its Embree scene.
+    pub embree: &'a embree::Scene,
+    /// Photon tracing of pass 0 (later passes derive theirs).
+    pub photons: PhotonOptions,
+    /// The estimate of pass 0 (`max_radius` and `k` are derived per pass).
+    pub estimator: EstimatorSettings,
+    /// Rendering of pass 0 (seed and jitter are derived per pass).
+    pub render: RenderOptions,
+    /// The schedule's `alpha`, in (0, 1).
+    pub alpha: f64,
+}
+
+impl Progressive<'_> {
+    /// The photon, estimator and render settings of pass `pass`.
+    pub fn pass_settings(&self, pass: u64) -> (PhotonOptions, EstimatorSettings, RenderOptions) {
+        let s = area_factor(self.alpha, pass);
+        let seed = derive_seed(self.photons.seed, pass);
+        let (lo, hi) = self.photons.radius_limits;
+        let photons = PhotonOptions {
+            overlap: self.photons.overlap * s,
+            radius_limits: (lo * s.sqrt(), hi * s.sqrt()),
+            seed,
+            ..self.photons.clone()
+        };
+        let k = self.estimator.k;
+        let estimator = EstimatorSettings {
+            max_radius: photons.limits(self.scene).max_radius,
+            k: if k <= 2 {
+                k
+            } else {
+                ((k as f64 * s).round() as usize).max(2)
+            },
+            ..self.estimator
+        };
+        let render = self
+            .render
+            .clone()
+            .with_seed(derive_seed(self.render.seed, pass))
+            .with_jitter(jitter(pass));
+        (photons, estimator, render)
+    }
+
+    /// Renders pass `pass` alone, recording its stages and counts in `stats`; `progress` shows
+    /// the photon and tile progress bars.
+    pub fn render_pass(
+        &self,
+        pass: u64,
+        progress: bool,
+        stats: &mut Stats,
+    ) -> Result<RenderedImage, String> {
+        let (photons, settings, render) = self.pass_settings(pass);
+        let render = render.with_progress(progress);
+        let maps = match settings.kind {
+            EstimatorKind::Direct => None,
+            EstimatorKind::Lighttrace => {
+                return Err("the light tracer has no progressive passes".to_string())
+            }
+            _ => Some(trace_photon_maps(
+                self.scene,
+                self.embree,
+                &photons,
+                render.threads,
+                progress,
+                stats,
+            )?),
+        };
+        let estimators = maps
+            .as_ref()
+            .map(|m| m.estimators(&settings))
+            .unwrap_or_default();
+        let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
+        render_image(self.scene, self.embree, &refs, &render, stats)
+    }
+
+    /// Renders the passes of `range` and sums them (what a worker rendering part of a run does;
+    /// [`PassSum::merge`] joins the parts).
+    pub fn render_range(&self, range: Range<u64>, stats: &mut Stats) -> Result<PassSum, String> {
+        let mut sum = PassSum::new(self.scene.camera.width, self.scene.camera.height);
+        for pass in range {
+            let mut pass_stats = Stats::default();
+            sum.add(&self.render_pass(pass, false, &mut pass_stats)?);
+            stats.absorb_pass(pass_stats);
+        }
+        stats.finish_passes(sum.passes);
+        Ok(sum)
+    }
+
+    /// Renders passes from 0 until a rule of `stop` ends the run; records the passes' stages
+    /// and counts and the report in `stats`. `progress` shows a progress bar over the passes
+    /// (or, for a single pass, the photon and tile bars).
+    pub fn run(
+        &self,
+        stop: &StopRules,
+        progress: bool,
+        stats: &mut Stats,
+    ) -> Result<PassSum, String> {
+        let single = stop.passes == Some(1);
+        let bar = crate::util::progress::pass_bar(progress && !single, stop.passes);
+        let start = Instant::now();
+        let mut sum = PassSum::new(self.scene.camera.width, self.scene.camera.height);
+        let mut noise = NoiseEstimate::default();
+        let reason = loop {
+            let done = sum.passes;
+            let elapsed = start.elapsed().as_secs_f64();
+            let per_pass = elapsed / done.max(1) as f64;
+            if stop.passes.is_some_and(|n| done >= n) {
+                break StopReason::Passes;
+            }
+            if let Some(budget) = stop.time_budget {
+                if done > 0 && elapsed + per_pass > budget.as_secs_f64() {
+                    break StopReason::TimeBudget;
+                }
+            }
+            if let (Some(target), Some(now)) = (stop.target_noise, noise.worst()) {
+                if now < target {
+                    break StopReason::TargetNoise;
+                }
+            }
+            let mut pass_stats = Stats::default();
+            sum.add(&self.render_pass(done, progress && single, &mut pass_stats)?);
+            stats.absorb_pass(pass_stats);
+            noise = NoiseEstimate::of(&sum);
+            let elapsed = start.elapsed().as_secs_f64();
+            bar.set_position(sum.passes);
+            bar.set_message(status(stop, sum.passes, elapsed, &noise, self.alpha));
+        };
+        bar.finish_and_clear();
+        stats.finish_passes(sum.passes);
+        stats.progressive = Some(PassReport {
+            passes: sum.passes,
+            alpha: self.alpha,
+            last_area_factor: area_factor(self.alpha, sum.passes.saturating_sub(1)),
+            stop: reason,
+            seconds_per_pass: start.elapsed().as_secs_f64() / sum.passes.max(1) as f64,
+            noise,
+        });
+        Ok(sum)
+    }
+}
+
+/// The progress bar's message: time left (the least any rule allows, from the mean pass time)
+/// and the noise estimate.
+fn status(stop: &StopRules, done: u64, elapsed: f64, noise: &NoiseEstimate, alpha: f64) -> String {
+    let per_pass = elapsed / done.max(1) as f64;
+    let mut left: Option<f64> = None;
+    let mut bound = |t: f64| left = Some(left.map_or(t, |l: f64| l.min(t)));
+    if let Some(n) = stop.passes {
+        bound(n.saturating_sub(done) as f64 * per_pass);
+    }
+    if let Some(budget) = stop.time_budget {
+        let fit = ((budget.as_secs_f64() - elapsed) / per_pass)
+            .floor()
+            .max(0.0);
+        bound(fit * per_pass);
+    }
+    if let (Some(target), Some(now)) = (stop.target_noise, noise.worst()) {
+        // The noise of the mean falls about as passes^(-alpha / 2).
+        let needed = done as f64 * (now / target).powf(2.0 / alpha);
+        bound((needed - done as f64).max(0.0) * per_pass);
+    }
+    let left = left.map_or("? s left".to_string(), |t| format!("{t:.1} s left"));
+    format!("{left}, noise {}", noise.describe())
+}

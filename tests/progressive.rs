@@ -1,0 +1,513 @@
+//! Progressive passes: one pass is the plain render; passes are bit-identical on any thread
+//! count and when rendered in separate ranges and merged; the mean's expected value does not
+//! drift as footprints shrink (a mirror caustic on a plane against its analytic irradiance).
+
+use photondiff::embree::Device;
+use photondiff::estimate::{EstimatorKind, EstimatorSettings};
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::render::pass_sum::PassSum;
+use photondiff::render::passes::{area_factor, jitter, StopReason, DEFAULT_ALPHA};
+use photondiff::render::stats::Stats;
+use photondiff::render::{render, trace_photon_maps, Progressive, RenderOptions, StopRules};
+use photondiff::scene::file::{load_scene, parse_scene};
+use photondiff::scene::Scene;
+use std::path::Path;
+
+fn canonical(width: u32, height: u32) -> Scene {
+    let mut scene = load_scene(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    )))
+    .unwrap();
+    scene.camera = scene.camera.with_resolution(width, height);
+    scene
+}
+
+fn settings(kind: EstimatorKind, scene: &Scene, photons: &PhotonOptions) -> EstimatorSettings {
+    EstimatorSettings {
+        kind,
+        k: 50,
+        max_radius: photons.limits(scene).max_radius,
+        ms_grid: 4,
+        ellipse_vertices: 16,
+    }
+}
+
+fn passes(n: u64) -> StopRules {
+    StopRules {
+        passes: Some(n),
+        ..StopRules::default()
+    }
+}
+
+#[test]
+fn the_schedule_shrinks_footprints_as_knaus_and_zwicker_and_jitters_from_the_centre() {
+    assert_eq!(area_factor(DEFAULT_ALPHA, 0), 1.0);
+    for i in 1..50u64 {
+        let ratio = area_factor(0.6, i) / area_factor(0.6, i - 1);
+        assert!((ratio - (i as f64 + 0.6) / (i as f64 + 1.0)).abs() < 1e-12);
+    }
+    // prod (j + a)/(j + 1) = Gamma(i + 1 + a) / (Gamma(1 + a) Gamma(i + 2)) ~ i^(a - 1).
+    let (a, b) = (area_factor(0.5, 10_000), area_factor(0.5, 40_000));
+    assert!((b / a - 4f64.powf(-0.5)).abs() < 1e-3, "{}", b / a);
+    assert_eq!(jitter(0), [0.5, 0.5]);
+    // Stratified over passes: each quarter of the cell gets 4 of the first 16 points, give or
+    // take one.
+    let mut quarters = [0; 4];
+    for i in 0..16 {
+        let [u, v] = jitter(i);
+        assert!((0.0..1.0).contains(&u) && (0.0..1.0).contains(&v));
+        quarters[(u >= 0.5) as usize * 2 + (v >= 0.5) as usize] += 1;
+    }
+    assert!(
+        quarters.iter().all(|&q| (3..=5).contains(&q)),
+        "{quarters:?}"
+    );
+}
+
+#[test]
+fn one_pass_is_the_plain_render_bit_for_bit() {
+    let scene = canonical(80, 60);
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let photons = PhotonOptions::default();
+    for kind in [
+        EstimatorKind::Pd,
+        EstimatorKind::Jensen,
+        EstimatorKind::Direct,
+    ] {
+        let mut stats = Stats::default();
+        let maps = trace_photon_maps(&scene, &embree, &photons, 0, false, &mut stats).unwrap();
+        let estimators = match kind {
+            EstimatorKind::Direct => Vec::new(),
+            _ => maps.estimators(&settings(kind, &scene, &photons)),
+        };
+        let refs: Vec<_> = estimators.iter().map(|e| e.as_ref()).collect();
+        let plain = render(
+            &scene,
+            &embree,
+            &refs,
+            &RenderOptions::default(),
+            &mut stats,
+        )
+        .unwrap();
+        let progressive = Progressive {
+            scene: &scene,
+            embree: &embree,
+            photons: photons.clone(),
+            estimator: settings(kind, &scene, &photons),
+            render: RenderOptions::default(),
+            alpha: DEFAULT_ALPHA,
+        };
+        let mut stats = Stats::default();
+        let sum = progressive.run(&passes(1), false, &mut stats).unwrap();
+        assert_eq!(sum.mean(), plain, "{kind:?}");
+        let report = stats.progressive.unwrap();
+        assert_eq!((report.passes, report.stop), (1, StopReason::Passes));
+        assert_eq!(report.noise.whole, None);
+    }
+}
+
+#[test]
+fn passes_are_bit_identical_on_any_thread_count_and_merge_from_ranges() {
+    let scene = canonical(64, 48);
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let photons = PhotonOptions {
+        global_photons: 20_000,
+        caustic_photons: 5_000,
+        seed: 9,
+        ..PhotonOptions::default()
+    };
+    let run = |threads: usize, kind: EstimatorKind| {
+        let progressive = Progressive {
+            scene: &scene,
+            embree: &embree,
+            photons: photons.clone(),
+            estimator: settings(kind, &scene, &photons),
+            render: RenderOptions::default()
+                .with_threads(threads)
+                .with_view_grid(2)
+                .with_seed(9),
+            alpha: DEFAULT_ALPHA,
+        };
+        let whole = progressive
+            .run(&passes(4), false, &mut Stats::default())
+            .unwrap();
+        let mut parts = progressive
+            .render_range(3..4, &mut Stats::default())
+            .unwrap();
+        parts.merge(
+            &progressive
+                .render_range(0..3, &mut Stats::default())
+                .unwrap(),
+        );
+        assert_eq!(parts.mean(), whole.mean(), "{kind:?}: merged ranges differ");
+        assert_eq!(parts.reach, whole.reach);
+        let first = progressive
+            .render_pass(0, false, &mut Stats::default())
+            .unwrap();
+        (whole, first)
+    };
+    for kind in [EstimatorKind::Pd, EstimatorKind::Multisampled] {
+        let (one, first) = run(1, kind);
+        let (two, _) = run(2, kind);
+        assert_eq!(one.mean(), two.mean(), "{kind:?}: 1 and 2 threads differ");
+        assert_eq!(one.passes, 4);
+        // The passes differ from each other (fresh photons, jitter) and the caustic reaches some
+        // pixels but not all.
+        assert_ne!(one.mean(), first.film);
+        let reach = one.reach.iter().filter(|&&r| r).count();
+        assert!(reach > 20 && reach < one.reach.len(), "{reach}");
+    }
+}
+
+/// A point light under a flat mirror, both over a diffuse plane: the caustic on the plane is the
+/// light of the light's mirror image, `E = R I h / (h^2 + rho^2)^(3/2)` with `h` the image's
+/// height.
+const MIRROR_SCENE: &str = r#"
+[camera]
+eye = [0.0, 2.5, 0.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 0.0, -1.0]
+fov_y = 43.6
+width = 48
+height = 48
+
+[materials.floor]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[materials.mirror]
+type = "mirror"
+reflectance = [1.0, 1.0, 1.0]
+
+[[lights]]
+type = "point"
+position = [0.0, 1.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+
+[[shapes]]
+type = "quad"
+corner = [-10.0, 0.0, 10.0]
+edge_u = [20.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -20.0]
+material = "floor"
+
+# At y = 3 facing down (edge_u x edge_v = -y); the light's image is at y = 5.
+[[shapes]]
+type = "quad"
+corner = [-1.2, 3.0, -1.2]
+edge_u = [2.4, 0.0, 0.0]
+edge_v = [0.0, 0.0, 2.4]
+material = "mirror"
+"#;
+
+#[test]
+fn the_progressive_mean_does_not_drift_from_the_analytic_caustic() {
+    let scene = parse_scene(MIRROR_SCENE, Path::new(".")).unwrap();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let photons = PhotonOptions {
+        global_photons: 0,
+        caustic_photons: 20_000,
+        seed: 5,
+        ..PhotonOptions::default()
+    };
+    let progressive = |kind| Progressive {
+        scene: &scene,
+        embree: &embree,
+        photons: photons.clone(),
+        estimator: settings(kind, &scene, &photons),
+        render: RenderOptions::default().with_seed(5),
+        alpha: DEFAULT_ALPHA,
+    };
+    let (with_photons, direct) = (
+        progressive(EstimatorKind::Pd),
+        progressive(EstimatorKind::Direct),
+    );
+    // The central 32 x 32 pixels see |x|, |z| < 0.7 of the plane, well inside the caustic
+    // (|x|, |z| < 3), whose irradiance there varies by 12%.
+    let camera = &scene.camera;
+    let region: Vec<(u32, u32)> = (8..40).flat_map(|y| (8..40).map(move |x| (x, y))).collect();
+    let analytic = region
+        .iter()
+        .map(|&(x, y)| {
+            let ray = camera.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
+            let p = ray.p + ray.d * (-ray.p.y / ray.d.y);
+            let (h, rho2) = (5.0, p.x * p.x + p.z * p.z);
+            10.0 * h / (h * h + rho2).powf(1.5)
+        })
+        .sum::<f64>()
+        / region.len() as f64;
+    let (mut sum, mut sum_direct) = (PassSum::new(48, 48), PassSum::new(48, 48));
+    for pass in 0..16 {
+        sum.add(
+            &with_photons
+                .render_pass(pass, false, &mut Stats::default())
+                .unwrap(),
+        );
+        sum_direct.add(
+            &direct
+                .render_pass(pass, false, &mut Stats::default())
+                .unwrap(),
+        );
+        if !(pass + 1).is_power_of_two() {
+            continue;
+        }
+        let (image, image_direct) = (sum.mean(), sum_direct.mean());
+        // Irradiance = radiance * pi / albedo; the caustic is what the photons add.
+        let caustic = region
+            .iter()
+            .map(|&(x, y)| (image.pixel(x, y) - image_direct.pixel(x, y)).x)
+            .sum::<f64>()
+            * std::f64::consts::PI
+            / 0.5
+            / region.len() as f64;
+        let error = caustic / analytic - 1.0;
+        eprintln!(
+            "{} passes: caustic irradiance {caustic:.5}, analytic {analytic:.5}, error {error:+.5}",
+            pass + 1
+        );
+        assert!(
+            error.abs() < 0.005,
+            "{} passes: mean caustic irradiance {caustic}, analytic {analytic}",
+            pass + 1
+        );
+    }
+    // Every footprint shrinks by the schedule, clamped ones too: the same photons (pass 0's
+    // seed) traced with pass 15's settings have s_15 times the area.
+    let (p0, _, _) = with_photons.pass_settings(0);
+    let (p15, _, _) = with_photons.pass_settings(15);
+    let p15 = PhotonOptions {
+        seed: p0.seed,
+        ..p15
+    };
+    let mut stats = Stats::default();
+    let m0 = trace_photon_maps(&scene, &embree, &p0, 0, false, &mut stats).unwrap();
+    let m15 = trace_photon_maps(&scene, &embree, &p15, 0, false, &mut stats).unwrap();
+    let s = area_factor(DEFAULT_ALPHA, 15);
+    assert!(s < 0.5, "{s}");
+    assert_eq!(m0.caustic.photons.len(), m15.caustic.photons.len());
+    // (Compared in sorted order: the maps may order their photons by footprint size.)
+    let areas = |m: &photondiff::photons::PhotonMaps| {
+        let mut a: Vec<f64> = m
+            .caustic
+            .photons
+            .iter()
+            .map(|p| 1.0 / p.inv_area as f64)
+            .collect();
+        a.sort_by(f64::total_cmp);
+        a
+    };
+    for (a, b) in areas(&m0).iter().zip(areas(&m15)) {
+        let ratio = b / a;
+        assert!(
+            (ratio / s - 1.0).abs() < 1e-5,
+            "area ratio {ratio}, schedule {s}"
+        );
+    }
+}
+
+const SMALL_SCENE: &str = r#"
+[camera]
+eye = [0.0, 2.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 40.0
+width = 32
+height = 24
+
+[materials.white]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[materials.glass]
+type = "glass"
+ior = 1.5
+
+[[lights]]
+type = "point"
+position = [0.0, 4.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+
+[[shapes]]
+type = "quad"
+corner = [-2.0, 0.0, 2.0]
+edge_u = [4.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -4.0]
+material = "white"
+
+[[shapes]]
+type = "sphere"
+center = [0.0, 1.0, 0.0]
+radius = 0.5
+segments = 32
+material = "glass"
+"#;
+
+fn photondiff(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn pass_options_are_validated_with_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, SMALL_SCENE).unwrap();
+    let scene = scene.to_str().unwrap();
+    let cases = [
+        (
+            "--passes",
+            "0",
+            "--passes must be a whole number of at least 1, got 0",
+        ),
+        (
+            "--passes",
+            "-3",
+            "--passes must be a whole number of at least 1, got -3",
+        ),
+        (
+            "--passes",
+            "nan",
+            "--passes must be a whole number of at least 1, got nan",
+        ),
+        (
+            "--passes",
+            "2.5",
+            "--passes must be a whole number of at least 1, got 2.5",
+        ),
+        (
+            "--time-budget",
+            "0",
+            "--time-budget must be a positive number of seconds, got 0",
+        ),
+        (
+            "--time-budget",
+            "-1",
+            "--time-budget must be a positive number of seconds, got -1",
+        ),
+        (
+            "--time-budget",
+            "nan",
+            "--time-budget must be a positive number of seconds, got NaN",
+        ),
+        (
+            "--target-noise",
+            "0",
+            "--target-noise must be a positive relative standard error (e.g. 0.01), got 0",
+        ),
+        (
+            "--target-noise",
+            "-0.5",
+            "--target-noise must be a positive relative standard error (e.g. 0.01), got -0.5",
+        ),
+        (
+            "--target-noise",
+            "NaN",
+            "--target-noise must be a positive relative standard error (e.g. 0.01), got NaN",
+        ),
+        ("--alpha", "1", "--alpha must be in (0, 1), got 1"),
+    ];
+    for (option, value, message) in cases {
+        let out = photondiff(&["render", "--quiet", option, value, scene]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{option} {value}: {stderr}");
+        assert_eq!(stderr.trim(), format!("photondiff: error: {message}"));
+    }
+    let out = photondiff(&[
+        "render",
+        "--quiet",
+        "--estimator",
+        "lighttrace",
+        "--passes",
+        "2",
+        scene,
+    ]);
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "photondiff: error: --passes and --target-noise do not apply to --estimator lighttrace \
+         (it takes --light-paths and --time-budget)"
+    );
+}
+
+#[test]
+fn the_command_line_reports_passes_and_noise_and_stops_by_its_rules() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, SMALL_SCENE).unwrap();
+    let scene = scene.to_str().unwrap();
+    let exr = dir.path().join("img.exr");
+    let json = dir.path().join("stats.json");
+    let run = |extra: &[&str]| -> serde_json::Value {
+        let mut args = vec![
+            "render",
+            "--quiet",
+            "--estimator",
+            "pd",
+            "--photons",
+            "2000",
+            "--caustic-photons",
+            "2000",
+            "-o",
+            exr.to_str().unwrap(),
+            "--stats-json",
+            json.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        args.push(scene);
+        let out = photondiff(&args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap()
+    };
+    let stats = run(&["--passes", "3"]);
+    let p = &stats["progressive"];
+    assert_eq!(
+        (p["passes"].as_u64(), p["stop"].as_str()),
+        (Some(3), Some("passes"))
+    );
+    let whole = p["noise"]["whole"].as_f64().unwrap();
+    let caustic = p["noise"]["caustic"].as_f64().unwrap();
+    assert!(whole > 0.0 && caustic > 0.0, "{whole} {caustic}");
+    assert!(p["noise"]["caustic_pixels"].as_u64().unwrap() > 0);
+    assert_eq!(stats["rays"]["camera"], 3 * 32 * 24);
+    let meta = exr::meta::MetaData::read_from_file(&exr, false).unwrap();
+    let attribute = |key: &str| {
+        meta.headers[0]
+            .own_attributes
+            .other
+            .get(&exr::meta::attribute::Text::from(key))
+            .map(|v| format!("{v:?}"))
+            .unwrap_or_default()
+    };
+    assert!(
+        attribute("photondiff/passes").contains('3'),
+        "{:?}",
+        meta.headers[0]
+            .own_attributes
+            .other
+            .keys()
+            .collect::<Vec<_>>()
+    );
+    assert!(attribute("photondiff/noise_caustic").contains(&format!("{caustic:.6}")));
+
+    // A loose target is met as soon as the noise can be estimated: after two passes.
+    let p = run(&["--target-noise", "100"])["progressive"].clone();
+    assert_eq!(
+        (p["passes"].as_u64(), p["stop"].as_str()),
+        (Some(2), Some("target_noise"))
+    );
+    // A budget too short for a second pass stops after the first.
+    let p = run(&["--time-budget", "0.000001"])["progressive"].clone();
+    assert_eq!(
+        (p["passes"].as_u64(), p["stop"].as_str()),
+        (Some(1), Some("time_budget"))
+    );
+}
