@@ -69,6 +69,7 @@ fn main() -> Result<(), String> {
         (Method::regular(3), Some(8.88)),
         (Method::coplanar(), Some(18.42)),
         (Method::multisampled(8), Some(3.09)),
+        (Method::integrated(), None),
         (Method::jensen(1), None),
         (Method::jensen(3), None),
         (Method::multisampled(1), None),

@@ -130,6 +130,7 @@ fn load_and_render(text: &str) -> bool {
     for kind in [
         EstimatorKind::Pd,
         EstimatorKind::Multisampled,
+        EstimatorKind::Integrated,
         EstimatorKind::Coplanar,
         EstimatorKind::Jensen,
     ] {

@@ -55,6 +55,7 @@ fn check(name: &str, scene: &Scene, global: usize, caustic: usize) -> u64 {
         Method::regular(1),
         Method::coplanar(),
         Method::multisampled(4),
+        Method::integrated(),
     ] {
         let (film, _) = method.render(scene, &embree, &maps, &options, 0).unwrap();
         let bad = bad_pixels(&film, bound);

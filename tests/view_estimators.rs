@@ -232,6 +232,7 @@ fn no_estimator_produces_nan_infinite_or_negative_radiance() {
         EstimatorKind::Pd,
         EstimatorKind::Coplanar,
         EstimatorKind::Multisampled,
+        EstimatorKind::Integrated,
     ] {
         let settings = EstimatorSettings {
             kind,

@@ -44,8 +44,9 @@ pub struct RenderArgs {
     area_samples: u32,
     /// Radiance estimate of the photon maps: `direct` (no photon maps, direct light only),
     /// `jensen` (k nearest photons), `pd` (photon differentials), `coplanar` (photon
-    /// differentials weighted by their intersection with the view footprint) or `multisampled`
-    /// (photon differentials averaged over N x N points of the view footprint); or
+    /// differentials weighted by their intersection with the view footprint), `multisampled`
+    /// (photon differentials averaged over N x N points of the view footprint) or `integrated`
+    /// (photon differentials averaged over the whole view footprint, exactly); or
     /// `lighttrace`, the unbiased light-tracing reference (no photon maps; see --light-paths).
     #[arg(long, value_enum, default_value_t = EstimatorKind::Pd)]
     estimator: EstimatorKind,

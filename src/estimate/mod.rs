@@ -2,16 +2,18 @@
 //! radiance reflected towards the camera at a diffuse hit, given the hit's view footprint.
 //!
 //! Each estimator is one file: [`jensen`] (k nearest photons), [`pd`] (photon differentials),
-//! [`coplanar`] and [`multisampled`] (photon differentials with the view footprint). [`select`]
-//! turns the command line's choice into estimators over the photon maps.
+//! [`coplanar`], [`multisampled`] and [`integrated`] (photon differentials with the view
+//! footprint). [`select`] turns the command line's choice into estimators over the photon maps.
 
 pub mod coplanar;
+pub mod integrated;
 pub mod jensen;
 pub mod multisampled;
 pub mod pd;
 pub mod select;
 
 pub use coplanar::CoplanarEstimate;
+pub use integrated::IntegratedEstimate;
 pub use jensen::JensenEstimate;
 pub use multisampled::MultiSampledEstimate;
 pub use pd::PhotonDifferentialEstimate;

@@ -2,8 +2,8 @@
 //! the photon maps.
 
 use super::{
-    CoplanarEstimate, JensenEstimate, MultiSampledEstimate, PhotonDifferentialEstimate,
-    RadianceEstimator,
+    CoplanarEstimate, IntegratedEstimate, JensenEstimate, MultiSampledEstimate,
+    PhotonDifferentialEstimate, RadianceEstimator,
 };
 use crate::photons::PhotonMaps;
 
@@ -22,6 +22,9 @@ pub enum EstimatorKind {
     /// Multi-sampled photon differentials: each kernel averaged over N x N points of the view
     /// footprint (Pedersen).
     Multisampled,
+    /// Footprint-integrated photon differentials: each kernel averaged over the whole view
+    /// footprint in closed form (multi-sampled as N grows without bound).
+    Integrated,
     /// Not a photon map estimate: the light-tracing reference (`reference::light_tracer`).
     Lighttrace,
 }
@@ -61,6 +64,7 @@ impl PhotonMaps {
                         map,
                         ellipse_vertices: settings.ellipse_vertices,
                     }),
+                    EstimatorKind::Integrated => Box::new(IntegratedEstimate { map }),
                     EstimatorKind::Multisampled => {
                         Box::new(MultiSampledEstimate::new(map, settings.ms_grid))
                     }

@@ -56,6 +56,15 @@ impl Method {
         }
     }
 
+    /// Footprint-integrated photon differentials, one camera ray per pixel.
+    pub fn integrated() -> Self {
+        Method {
+            kind: EstimatorKind::Integrated,
+            view_grid: 1,
+            ms_grid: 1,
+        }
+    }
+
     /// A name for tables and charts.
     pub fn label(&self) -> String {
         let n = self.view_grid;
@@ -64,6 +73,7 @@ impl Method {
             EstimatorKind::Jensen => format!("Jensen {n}x{n}"),
             EstimatorKind::Coplanar => "Coplanar intersection-weighted".to_string(),
             EstimatorKind::Multisampled => format!("Multi-sampled {0}x{0}", self.ms_grid),
+            EstimatorKind::Integrated => "Footprint-integrated".to_string(),
             EstimatorKind::Direct => "Direct light only".to_string(),
             EstimatorKind::Lighttrace => "Light tracing".to_string(),
         }

@@ -1,0 +1,472 @@
+//! The integral of the Epanechnikov profile `1 - |u|^2` over the intersection of the unit disc
+//! `D` with a parallelogram `P = {s + alpha a + beta b : alpha, beta in [-1/2, 1/2]}`, in closed
+//! form. The footprint-integrated estimate (`estimate::integrated`) needs it once per photon:
+//! `P` is the pixel's view footprint mapped into the photon's filter space.
+//!
+//! # Derivation
+//!
+//! With `F(u) = (1/2 - |u|^2/4) u` one has `div F = 2 (1/2 - |u|^2/4) + u . grad(-|u|^2/4)
+//! = 1 - |u|^2/2 - |u|^2/2 = 1 - |u|^2`, so by the divergence theorem the integral over a region
+//! is the outward flux of `F` through its boundary. `F` is radial, `F(u) = g(|u|) u`, so it has
+//! no flux through any segment on a line through the origin. That makes a fan decomposition
+//! cheap: a convex polygon with counter-clockwise vertices `p_k` is, up to sign, the sum of the
+//! triangles `(0, p_k, p_k+1)`, and so is its intersection with `D` (intersection distributes
+//! over the signed sum). A triangle `T` with a vertex at the origin is star-shaped from it, so
+//! `T ∩ D` is bounded by its two radial sides (no flux), by the part of the side `p_k p_k+1`
+//! inside `D`, and by arcs of the unit circle where that side runs outside `D`:
+//!
+//! - on the side's line, with outward normal `n` (the right normal of the direction of travel),
+//!   signed distance `h = p . n` of the line from the origin and arc length `t` from the foot of
+//!   the perpendicular, `u = h n + t tau`, `|u|^2 = h^2 + t^2` and `F . n = (1/2 - |u|^2/4) h`,
+//!   so the piece `[t0, t1]` contributes
+//!   `h ((1/2 - h^2/4)(t1 - t0) - (t1^3 - t0^3)/12)`;
+//!   the part of the side inside `D` is its `t`-range clipped to `[-w, w]`, `w = sqrt(1 - h^2)`
+//!   (empty when `|h| >= 1`);
+//! - on the unit circle `F . n = (1/2 - 1/4) |u| = 1/4`, so an arc of signed angle `phi`
+//!   contributes `phi / 4`. The arcs replace the side's pieces `[t0, t0']` and `[t1', t1]`
+//!   outside `D` (`t0'`, `t1'` the clipped ends), and the angle a piece `[ta, tb]` subtends is
+//!   `arg((h - i ta)(h + i tb))`. Each such angle lies in `(-pi/2, pi/2)`, so the two of a side
+//!   combine into one `atan2` of the product of the four complex factors.
+//!
+//! Summed over the four sides this is the integral, for every configuration at once: `P` inside
+//! `D` (no clipping, no arcs), `D` inside `P` (all `|h| >= 1`: the arcs sum to `2 pi`, giving
+//! `pi / 2`, the integral over the whole disc), disjoint (the arcs cancel to 0), tangent (a clip
+//! range of zero length). The whole disc gives `pi / 2`, and `(2 / pi)(1 - r^2)` integrates to 1.
+//!
+//! # Precision and fast paths
+//!
+//! The fan sum cancels: for a small `P` each side contributes about `|P|` while the sum is about
+//! `|P|^2`. [`classify`] therefore settles the common cases exactly before the general formula:
+//! `P` inside `D` has the polygon-moment closed form
+//! `mean over P of (1 - |u|^2) = 1 - |s|^2 - (|a|^2 + |b|^2) / 12` (the second moment of a
+//! parallelogram about its centre; no division by the area), `D` inside `P` gives
+//! `(pi / 2) / area`, and a side line that separates `P` from `D` gives 0. The general formula
+//! runs in `f64` (its absolute error is about `1e-16` times the side contributions), with
+//! nearly flat parallelograms thickened to a width of at least [`MIN_WIDTH`] times their size
+//! (changing the mean by about that fraction), and parallelograms smaller than [`POINT_SIZE`]
+//! evaluated at their centre: the limit of the mean as the footprint vanishes is the kernel at
+//! the centre, which is the photon-differential estimate.
+
+use glam::DVec2;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+use wide::f64x4;
+
+/// Parallelograms whose edge vectors satisfy `|a|^2 + |b|^2 < POINT_SIZE^2` are points: the mean
+/// of the kernel over them is its value at the centre (the kernel's gradient is at most 2, so
+/// this changes the mean by at most `2 POINT_SIZE`).
+pub const POINT_SIZE: f64 = 1e-5;
+
+/// Parallelograms narrower than `MIN_WIDTH * min(size, 1)` (width = area / size, size =
+/// `sqrt(|a|^2 + |b|^2)`) are thickened to that width before the general formula, whose
+/// cancellation error is about `1e-16 / width`.
+pub const MIN_WIDTH: f64 = 1e-5;
+
+/// Arithmetic the general formula needs, for one value ([`f64`]) and four in SIMD lanes
+/// ([`f64x4`]), so that the scalar and batched versions are one formula.
+pub trait Lane:
+    Copy
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Div<Output = Self>
+    + Neg<Output = Self>
+{
+    /// `x` in every lane.
+    fn splat(x: f64) -> Self;
+    /// Square root.
+    fn sqrt(self) -> Self;
+    /// Lane-wise maximum.
+    fn max(self, o: Self) -> Self;
+    /// Lane-wise minimum.
+    fn min(self, o: Self) -> Self;
+    /// Absolute value.
+    fn abs(self) -> Self;
+    /// `atan2(self, x)`.
+    fn atan2(self, x: Self) -> Self;
+    /// `-self` where `sign` is negative, else `self`.
+    fn negate_where_negative(self, sign: Self) -> Self;
+}
+
+impl Lane for f64 {
+    fn splat(x: f64) -> Self {
+        x
+    }
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    fn max(self, o: Self) -> Self {
+        f64::max(self, o)
+    }
+    fn min(self, o: Self) -> Self {
+        f64::min(self, o)
+    }
+    fn abs(self) -> Self {
+        f64::abs(self)
+    }
+    fn atan2(self, x: Self) -> Self {
+        f64::atan2(self, x)
+    }
+    fn negate_where_negative(self, sign: Self) -> Self {
+        if sign < 0.0 {
+            -self
+        } else {
+            self
+        }
+    }
+}
+
+impl Lane for f64x4 {
+    fn splat(x: f64) -> Self {
+        f64x4::splat(x)
+    }
+    fn sqrt(self) -> Self {
+        f64x4::sqrt(self)
+    }
+    fn max(self, o: Self) -> Self {
+        f64x4::max(self, o)
+    }
+    fn min(self, o: Self) -> Self {
+        f64x4::min(self, o)
+    }
+    fn abs(self) -> Self {
+        f64x4::abs(self)
+    }
+    fn atan2(self, x: Self) -> Self {
+        f64x4::atan2(self, x)
+    }
+    fn negate_where_negative(self, sign: Self) -> Self {
+        sign.simd_lt(f64x4::ZERO).bitselect(-self, self)
+    }
+}
+
+/// The flux of `F` through one side of the fan triangle `(0, start, end)` ∩ `D`: the side lies
+/// on the line at signed distance `h` (outward) from the origin and runs over `t in [t0, t1]`.
+#[inline(always)]
+fn side<T: Lane>(h: T, t0: T, t1: T) -> T {
+    let half = T::splat(0.5);
+    let quarter = T::splat(0.25);
+    let hh = h * h;
+    let w = (T::splat(1.0) - hh).max(T::splat(0.0)).sqrt();
+    let (u0, u1) = (t0.max(-w).min(w), t1.max(-w).min(w));
+    let line = h
+        * ((half - quarter * hh) * (u1 - u0)
+            - (u1 - u0) * (u1 * u1 + u1 * u0 + u0 * u0) * T::splat(1.0 / 12.0));
+    // The angles of the outside pieces [t0, u0] and [u1, t1], as one complex product.
+    let (r1, i1) = (hh + t0 * u0, h * (u0 - t0));
+    let (r2, i2) = (hh + u1 * t1, h * (t1 - u1));
+    let arcs = (r1 * i2 + i1 * r2).atan2(r1 * r2 - i1 * i2);
+    line + quarter * arcs
+}
+
+/// `(integral over P ∩ D of (1 - |u|^2), area of P)` by the general formula (see the module
+/// documentation), for `P` of centre `(s0, s1)` and edge vectors `(a0, a1)`, `(b0, b1)` in
+/// either orientation. Needs `a`, `b` of non-zero length and `P` of non-zero area.
+#[inline(always)]
+pub fn general<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T, T) {
+    let half = T::splat(0.5);
+    let cross = a0 * b1 - a1 * b0;
+    let area = cross.abs();
+    // Counter-clockwise: b to the left of a.
+    let (b0, b1) = (
+        b0.negate_where_negative(cross),
+        b1.negate_where_negative(cross),
+    );
+    let la = (a0 * a0 + a1 * a1).sqrt();
+    let lb = (b0 * b0 + b1 * b1).sqrt();
+    // Sides along a (at -b/2 forwards, at +b/2 backwards): tangent a/|a|, outward normal its
+    // right normal (for the first); the second is the first reflected through the centre.
+    let (ta0, ta1) = (a0 / la, a1 / la);
+    let c = s0 * ta1 - s1 * ta0;
+    let g = s0 * ta0 + s1 * ta1;
+    let k = half * (b0 * ta0 + b1 * ta1);
+    let wa = half * area / la;
+    let hl = half * la;
+    // Sides along b (at +a/2 forwards, at -a/2 backwards).
+    let (tb0, tb1) = (b0 / lb, b1 / lb);
+    let cb = s0 * tb1 - s1 * tb0;
+    let gb = s0 * tb0 + s1 * tb1;
+    let kb = half * (a0 * tb0 + a1 * tb1);
+    let wb = half * area / lb;
+    let hb = half * lb;
+    let integral = side(wa + c, g - k - hl, g - k + hl)
+        + side(wa - c, -g - k - hl, -g - k + hl)
+        + side(wb + cb, gb + kb - hb, gb + kb + hb)
+        + side(wb - cb, -gb + kb - hb, -gb + kb + hb);
+    (integral, area)
+}
+
+/// What [`classify`] settles for a parallelogram.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Overlap {
+    /// No overlap with the disc's interior: the mean is 0.
+    None,
+    /// The mean of `(1 - |u|^2)+` over the parallelogram, in closed form.
+    Mean(f64),
+    /// Needs the general formula ([`general`]) with these (possibly thickened) edge vectors:
+    /// the mean is its integral over its area.
+    General {
+        /// Centre.
+        s: DVec2,
+        /// First edge vector.
+        a: DVec2,
+        /// Second edge vector.
+        b: DVec2,
+    },
+}
+
+/// Settles the cases with a closed form (see the module documentation) and prepares the rest.
+/// Non-finite input gives [`Overlap::None`].
+#[inline]
+pub fn classify(s: DVec2, a: DVec2, b: DVec2) -> Overlap {
+    let size2 = a.length_squared() + b.length_squared();
+    let ss = s.length_squared();
+    if !(size2.is_finite() && ss.is_finite()) {
+        return Overlap::None;
+    }
+    if size2 < POINT_SIZE * POINT_SIZE {
+        return Overlap::Mean((1.0 - ss).max(0.0));
+    }
+    // The vertices' squared distances: |s|^2 + (|a|^2 + |b|^2)/4 +- s.a +- s.b +- a.b/2, the
+    // last sign the product of the first two.
+    let (sa, sb, ab) = (s.dot(a), s.dot(b), 0.5 * a.dot(b));
+    let base = ss + 0.25 * size2;
+    let far = base + ((sa + sb).abs() + ab).max((sa - sb).abs() - ab);
+    if far <= 1.0 {
+        return Overlap::Mean(1.0 - ss - size2 / 12.0);
+    }
+    let circumradius = 0.5
+        * (a + b)
+            .length_squared()
+            .max((a - b).length_squared())
+            .sqrt();
+    if ss >= (1.0 + circumradius) * (1.0 + circumradius) {
+        return Overlap::None;
+    }
+    let (a, b) = thickened(a, b, MIN_WIDTH * size2.sqrt().min(1.0));
+    // Sides' signed distances from the origin: centre distance +- half width, per direction.
+    let area = a.perp_dot(b).abs();
+    let (la, lb) = (a.length(), b.length());
+    let ca = s.perp_dot(a) / la;
+    let cb = s.perp_dot(b) / lb;
+    let (wa, wb) = (0.5 * area / la, 0.5 * area / lb);
+    if wa - ca.abs() >= 1.0 && wb - cb.abs() >= 1.0 {
+        return Overlap::Mean(std::f64::consts::FRAC_PI_2 / area);
+    }
+    if wa - ca.abs() <= -1.0 || wb - cb.abs() <= -1.0 {
+        return Overlap::None;
+    }
+    Overlap::General { s, a, b }
+}
+
+/// The mean of `(1 - |u|^2)+` over the parallelogram of centre `s` and edge vectors `a`, `b`
+/// (for the Epanechnikov kernel multiply by `2 / pi`): [`classify`], then [`general`].
+pub fn mean(s: DVec2, a: DVec2, b: DVec2) -> f64 {
+    match classify(s, a, b) {
+        Overlap::None => 0.0,
+        Overlap::Mean(m) => m,
+        Overlap::General { s, a, b } => {
+            let (integral, area) = general(s.x, s.y, a.x, a.y, b.x, b.y);
+            (integral / area).max(0.0)
+        }
+    }
+}
+
+/// `a`, `b` with the shorter one moved along the longer one's normal so that the parallelogram
+/// is at least `min_width` wide across the longer one; unchanged if it already is.
+fn thickened(a: DVec2, b: DVec2, min_width: f64) -> (DVec2, DVec2) {
+    let cross = a.perp_dot(b);
+    let sign = if cross < 0.0 { -1.0 } else { 1.0 };
+    if a.length_squared() >= b.length_squared() {
+        let la = a.length();
+        if cross.abs() >= min_width * la {
+            return (a, b);
+        }
+        // perp_dot(a, b + l perp(a)/|a|) = cross + l |a|.
+        let lambda = sign * (min_width - cross.abs() / la);
+        (a, b + a.perp() / la * lambda)
+    } else {
+        let lb = b.length();
+        if cross.abs() >= min_width * lb {
+            return (a, b);
+        }
+        // perp_dot(a + l perp(b)/|b|, b) = cross - l |b|.
+        let lambda = -sign * (min_width - cross.abs() / lb);
+        (a + b.perp() / lb * lambda, b)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+
+    fn general_f64(s: DVec2, a: DVec2, b: DVec2) -> f64 {
+        general(s.x, s.y, a.x, a.y, b.x, b.y).0
+    }
+
+    /// Checks the general formula, and the mean with its fast paths, against `expected`.
+    fn check(s: DVec2, a: DVec2, b: DVec2, expected: f64) {
+        let area = a.perp_dot(b).abs();
+        for (s, a, b) in [(s, a, b), (s, b, a), (s, -a, b), (s, a, -b)] {
+            let g = general_f64(s, a, b);
+            assert!((g - expected).abs() < 1e-12, "general {g} vs {expected}");
+            let m = mean(s, a, b) * area;
+            assert!((m - expected).abs() < 1e-12, "mean {m} vs {expected}");
+        }
+    }
+
+    #[test]
+    fn whole_half_quarter_and_no_disc() {
+        let big = |w: f64| (DVec2::new(w, 0.0), DVec2::new(0.0, w));
+        let (a, b) = big(100.0);
+        check(DVec2::ZERO, a, b, FRAC_PI_2);
+        check(DVec2::new(0.0, 50.0), a, b, FRAC_PI_4);
+        check(DVec2::new(50.0, 50.0), a, b, FRAC_PI_4 / 2.0);
+        check(DVec2::new(-51.0, 0.0), a, b, 0.0);
+        // Tangent: the square circumscribing the disc, and a square touching it from outside.
+        let (a, b) = big(2.0);
+        check(DVec2::ZERO, a, b, FRAC_PI_2);
+        check(DVec2::new(2.0, 0.0), a, b, 0.0);
+        check(DVec2::new(2.0, 2.0), a, b, 0.0);
+        // Rotated and sheared, far outside and all around.
+        let (a, b) = (DVec2::new(30.0, 10.0), DVec2::new(-5.0, 40.0));
+        check(DVec2::new(3.0, -2.0), a, b, FRAC_PI_2);
+        check(DVec2::new(300.0, -2.0), a, b, 0.0);
+    }
+
+    #[test]
+    fn a_strip_through_the_disc() {
+        // Integral over |x| < h of (4/3)(1 - x^2)^(3/2).
+        let antiderivative =
+            |x: f64| (x * (5.0 - 2.0 * x * x) * (1.0 - x * x).sqrt() + 3.0 * x.asin()) / 8.0;
+        for h in [0.01, 0.3, 0.7, 0.999, 1.0] {
+            let expected = 4.0 / 3.0 * 2.0 * antiderivative(h);
+            check(
+                DVec2::ZERO,
+                DVec2::new(2.0 * h, 0.0),
+                DVec2::new(0.0, 5.0),
+                expected,
+            );
+            // The same strip, rotated.
+            let r = DVec2::from_angle(0.7);
+            check(
+                DVec2::ZERO,
+                r.rotate(DVec2::new(2.0 * h, 0.0)),
+                r.rotate(DVec2::new(0.0, 5.0)),
+                expected,
+            );
+        }
+        assert!((4.0 / 3.0 * 2.0 * antiderivative(1.0) - FRAC_PI_2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn inside_the_disc_the_polygon_moments_hold() {
+        let (s, a, b) = (
+            DVec2::new(0.2, -0.1),
+            DVec2::new(0.3, 0.1),
+            DVec2::new(-0.2, 0.4),
+        );
+        let area = a.perp_dot(b).abs();
+        let expected =
+            area * (1.0 - s.length_squared() - (a.length_squared() + b.length_squared()) / 12.0);
+        assert!(matches!(classify(s, a, b), Overlap::Mean(_)));
+        check(s, a, b, expected);
+    }
+
+    #[test]
+    fn closed_forms_and_general_formula_agree_at_their_boundaries() {
+        // Parallelograms just inside (closed form) and just crossing (general formula).
+        for scale in [0.999, 1.001] {
+            let r = DVec2::from_angle(0.3);
+            let (a, b) = (
+                r.rotate(DVec2::new(1.2, 0.0)),
+                r.rotate(DVec2::new(0.0, 0.8)) * scale,
+            );
+            let s = DVec2::new(0.0, 0.0);
+            let g = general_f64(s, a, b) / a.perp_dot(b).abs();
+            assert!(
+                (mean(s, a, b) - g).abs() < 1e-13,
+                "{} vs {g}",
+                mean(s, a, b)
+            );
+        }
+        let m_in = mean(
+            DVec2::ZERO,
+            DVec2::new(1.2, 0.0),
+            DVec2::new(0.0, 1.6 * 0.9999),
+        );
+        let m_out = mean(
+            DVec2::ZERO,
+            DVec2::new(1.2, 0.0),
+            DVec2::new(0.0, 1.6 * 1.0001),
+        );
+        assert!((m_in - m_out).abs() < 1e-3, "{m_in} {m_out}");
+    }
+
+    #[test]
+    fn vanishing_and_flat_parallelograms() {
+        let s = DVec2::new(0.3, 0.4);
+        // Below the point size: the kernel at the centre, exactly.
+        assert_eq!(mean(s, DVec2::ZERO, DVec2::ZERO), 1.0 - s.length_squared());
+        assert_eq!(
+            mean(s, DVec2::new(1e-7, 0.0), DVec2::new(0.0, 1e-7)),
+            1.0 - s.length_squared()
+        );
+        assert_eq!(mean(DVec2::new(1.0, 0.0), DVec2::ZERO, DVec2::ZERO), 0.0);
+        // A segment through the rim: the mean along it, (1/L) integral of (1 - x^2) over
+        // [0.5, 1] for the segment [0.5, 1.5] on the x axis.
+        let expected = (0.5 - (1.0 - 0.125) / 3.0) / 1.0;
+        for (a, b) in [
+            (DVec2::new(1.0, 0.0), DVec2::ZERO),
+            (DVec2::ZERO, DVec2::new(1.0, 0.0)),
+        ] {
+            let m = mean(DVec2::new(1.0, 0.0), a, b);
+            assert!((m - expected).abs() < 1e-4, "{m} vs {expected}");
+            assert!(m.is_finite());
+        }
+        // Non-finite footprints contribute nothing.
+        assert_eq!(mean(s, DVec2::NAN, DVec2::ZERO), 0.0);
+        assert_eq!(mean(s, DVec2::INFINITY, DVec2::X), 0.0);
+    }
+
+    #[test]
+    fn simd_lanes_equal_the_scalar_formula() {
+        let cases = [
+            (
+                DVec2::new(0.9, 0.1),
+                DVec2::new(0.5, 0.1),
+                DVec2::new(-0.1, 0.7),
+            ),
+            (
+                DVec2::new(-1.2, 0.3),
+                DVec2::new(2.0, 0.0),
+                DVec2::new(0.3, 3.0),
+            ),
+            (
+                DVec2::new(0.0, 0.0),
+                DVec2::new(5.0, 1.0),
+                DVec2::new(-1.0, 6.0),
+            ),
+            (
+                DVec2::new(2.5, 2.5),
+                DVec2::new(1.0, 0.0),
+                DVec2::new(0.0, 1.0),
+            ),
+        ];
+        let lanes = |f: fn(&(DVec2, DVec2, DVec2)) -> f64| f64x4::from(cases.map(|c| f(&c)));
+        let (integral, area) = general(
+            lanes(|c| c.0.x),
+            lanes(|c| c.0.y),
+            lanes(|c| c.1.x),
+            lanes(|c| c.1.y),
+            lanes(|c| c.2.x),
+            lanes(|c| c.2.y),
+        );
+        for (k, (s, a, b)) in cases.iter().enumerate() {
+            let (i, ar) = general(s.x, s.y, a.x, a.y, b.x, b.y);
+            assert!((integral.to_array()[k] - i).abs() < 1e-14, "{k}");
+            assert_eq!(area.to_array()[k], ar);
+        }
+        assert!((integral.to_array()[2] - PI / 2.0).abs() < 1e-14);
+    }
+}
