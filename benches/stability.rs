@@ -53,7 +53,11 @@ fn measure(
         &embree,
         &root.join("out/reference"),
         name,
-        paths,
+        &photondiff::reference::cache::ReferenceSettings {
+            light_paths: paths,
+            caustic_paths: paths,
+            ..Default::default()
+        },
         &mut |m| eprintln!("{m}"),
     )?;
     let regions = Regions::new(scene, &embree, &reference.film);
@@ -125,7 +129,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ),
     ];
     println!("\n## Stability: every method on every stress scene, 160 x 120\n");
-    println!("relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) over the pixels the reference lights (first hit diffuse, R > 0), against a light-traced reference of {paths} paths; worst = the largest I/R where R is at least a tenth of its mean; energy = sum(I)/sum(R) - 1 over the same pixels; guards = clamped or fallback footprints in both maps.\n");
+    println!("relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) over the pixels the reference lights (first hit diffuse, R > 0), against a reference of direct light on 16x16 and 17x17 rays per pixel plus {paths} + {paths} caustic light paths for the rest; worst = the largest I/R where R is at least a tenth of its mean; energy = sum(I)/sum(R) - 1 over the same pixels; guards = clamped or fallback footprints in both maps.\n");
     println!("| scene | method | relRMSE | worst I/R | energy | guards | render s |");
     println!("|---|---|---|---|---|---|---|");
     for (k, (name, scene, photons)) in cases.iter().enumerate() {

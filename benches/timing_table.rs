@@ -45,7 +45,11 @@ fn main() -> Result<(), String> {
             &embree,
             &root.join("out/reference"),
             "caustic-sphere",
-            paths,
+            &photondiff::reference::cache::ReferenceSettings {
+                light_paths: paths,
+                caustic_paths: paths,
+                ..Default::default()
+            },
             &mut |m| eprintln!("{m}"),
         )
     })?;
@@ -100,7 +104,7 @@ fn main() -> Result<(), String> {
     println!("\n## Timing table: canonical scene, 640 x 480, {} global + {} caustic photon differentials\n",
         options.global_photons, options.caustic_photons);
     println!("Photon tracing (shared by every row): {:.3} s (median of {repeats}). Rendering: median of {repeats}, methods alternated, {} threads.", median(trace_times), pool.current_num_threads());
-    println!("Error: relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) against a light-traced reference of {paths} paths, over the floor ({} px), the caustic ({} px: reference > 1.5 x unblocked direct light) and its contour ({} px: the tenth of the caustic with the largest reference gradient); SSIM on sRGB luminance over the whole image.", regions.diffuse.len(), regions.caustic.len(), regions.contour.len());
+    println!("Error: relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) against a reference of direct light on 16x16 and 17x17 rays per pixel plus {paths} + {paths} caustic light paths for the rest, over the floor ({} px), the caustic ({} px: reference > 1.5 x unblocked direct light) and its contour ({} px: the tenth of the caustic with the largest reference gradient); SSIM on sRGB luminance over the whole image.", regions.diffuse.len(), regions.caustic.len(), regions.contour.len());
     println!("Reference noise (relative, from its two halves): floor {:.4}, caustic {:.4}, contour {:.4}.\n",
         reference.relative_noise(&regions.diffuse), reference.relative_noise(&regions.caustic), reference.relative_noise(&regions.contour));
     println!("| method | rendering time (s) | ratio to regular 1x1 | thesis ratio | relRMSE floor | relRMSE caustic | relRMSE contour | SSIM |");

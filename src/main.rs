@@ -20,12 +20,16 @@ struct Cli {
 enum Command {
     /// Render a scene file to a linear float EXR and an sRGB PNG preview.
     Render(cli::render::RenderArgs),
+    /// Make a scene's reference image: direct light supersampled, the rest light-traced, with
+    /// two independent halves for its noise.
+    Reference(cli::reference::ReferenceArgs),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Render(args) => cli::render::run(&args),
+        Command::Reference(args) => cli::reference::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

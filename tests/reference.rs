@@ -104,3 +104,71 @@ fn light_tracing_ignores_the_thread_count() {
     assert!(one.film.pixels.iter().any(|p| p.x > 0.0));
     assert!(one.half_a != one.half_b);
 }
+
+/// Mean over `pixels` and channels.
+fn region_mean(film: &photondiff::render::film::Film, pixels: &[usize]) -> f64 {
+    let sum: f64 = pixels
+        .iter()
+        .map(|&i| film.pixels[i].x + film.pixels[i].y + film.pixels[i].z)
+        .sum();
+    sum / (3 * pixels.len()) as f64
+}
+
+#[test]
+fn split_reference_agrees_with_plain_light_tracing_and_is_less_noisy() {
+    use photondiff::reference::cache::{make, ReferenceSettings};
+    use photondiff::reference::metrics::Regions;
+    let scene = canonical(80, 60);
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let paths = 6_000_000;
+    let options = LightTraceOptions {
+        paths,
+        seed: 5,
+        ..LightTraceOptions::default()
+    };
+    let plain = pool.install(|| {
+        LightTracer::new(&scene, &embree, &options).run(&indicatif::ProgressBar::hidden())
+    });
+    let settings = ReferenceSettings {
+        light_paths: paths / 2,
+        caustic_paths: paths / 2,
+        direct_grids: [4, 5],
+    };
+    let split = pool
+        .install(|| make(&scene, &embree, &settings, &mut |_| {}))
+        .unwrap();
+    let regions = Regions::new(&scene, &embree, &split.film);
+    for (name, pixels) in [
+        ("floor", &regions.diffuse),
+        ("caustic", &regions.caustic),
+        ("shadow", &regions.shadow),
+    ] {
+        assert!(pixels.len() >= 20, "{name}: only {} pixels", pixels.len());
+        let (a, b) = (
+            region_mean(&plain.film, pixels),
+            region_mean(&split.film, pixels),
+        );
+        let n = (pixels.len() as f64).sqrt();
+        let (noise_plain, noise_split) =
+            (plain.relative_noise(pixels), split.relative_noise(pixels));
+        let sigma = (noise_plain.powi(2) + noise_split.powi(2)).sqrt() / n;
+        assert!(
+            (b / a - 1.0).abs() < 0.01 + 4.0 * sigma,
+            "{name}: split {b}, plain {a} ({:+.4}, sigma {sigma:.4})",
+            b / a - 1.0
+        );
+        // Same number of paths, but none wasted on directions that miss the sphere and no noise
+        // from direct light: the caustic and the floor must be far less noisy.
+        if name != "shadow" {
+            assert!(
+                noise_split < 0.5 * noise_plain,
+                "{name}: split noise {noise_split:.4}, plain {noise_plain:.4}"
+            );
+        }
+    }
+}

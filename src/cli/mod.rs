@@ -1,5 +1,6 @@
 //! The subcommands of the command line, one file each, and what they share.
 
+pub mod reference;
 pub mod render;
 
 use std::path::Path;

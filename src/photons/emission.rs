@@ -211,12 +211,33 @@ impl Emitter {
     /// The `index`-th emission (`rng` is that photon's own stream), or `None` when the sample
     /// carries no power (a quad light's back side).
     pub fn emit(&self, index: u64, rng: &mut Rng) -> Option<Emission> {
+        self.emit_from_light(index, rng).map(|(e, _)| e)
+    }
+
+    /// Whether this (caustic) emitter can draw direction `d` leaving `from` on `light`: `d` lies
+    /// in one of the light's target cones. A light tracer that traces caustic paths with this
+    /// emitter skips such directions of its global paths, so that no direction is counted twice.
+    pub fn covers(&self, light: &Light, from: DVec3, d: DVec3) -> bool {
+        self.cone_pdf(from, light, d) > 0.0
+    }
+
+    /// [`Emitter::emit`], with the light the emission left.
+    pub fn emit_from_light(&self, index: u64, rng: &mut Rng) -> Option<(Emission, &Light)> {
+        let light = self.pick_light(rng);
+        Some((self.emit_picked(light.0, index, rng)?, light.1))
+    }
+
+    fn pick_light(&self, rng: &mut Rng) -> (usize, &Light) {
         let pick = rng.uniform();
         let k = self
             .cdf
             .iter()
             .position(|&c| pick < c)
             .unwrap_or(self.sources.len() - 1);
+        (k, &self.sources[k].light)
+    }
+
+    fn emit_picked(&self, k: usize, index: u64, rng: &mut Rng) -> Option<Emission> {
         let source = &self.sources[k];
         let (u, v) = if self.random {
             (rng.uniform(), rng.uniform())

@@ -1,19 +1,33 @@
-//! Light-traced references for the experiments, cached on disk: a reference at the scene's
-//! resolution costs minutes, so it is made once per scene, size and path count and reused.
+//! References for the experiments, cached on disk: a reference at the scene's resolution costs
+//! minutes, so it is made once per scene, size and settings and reused.
+//!
+//! A reference is split in two parts, each made the way it converges fastest:
+//! - **direct light** (light -> diffuse surface -> camera) from the renderer's own direct
+//!   estimate, supersampled on two different camera-ray grids (`direct_grids`, e.g. 16 x 16 and
+//!   17 x 17 rays per pixel): point and spot lights are exact per ray, so what remains is the
+//!   pixel integral's discretisation, which the two grids expose in the halves;
+//! - **everything that bounced at least once** before the vertex seen by the camera, from the
+//!   light tracer with direct vertices left out ([`LightTraceOptions::direct`] = false), its
+//!   caustic part aimed at the specular meshes ([`LightTraceOptions::caustic_paths`]).
+//!
+//! Half A is grid 0's direct light plus the light tracer's even chunks, half B grid 1's plus its
+//! odd chunks; the reference is their mean, and half their difference estimates its noise.
 
 use crate::embree;
 use crate::reference::light_tracer::{LightTraceOptions, LightTraceResult, LightTracer};
 use crate::render::film::Film;
+use crate::render::stats::Stats;
+use crate::render::{render, RenderOptions};
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
 
 /// A reference image and its two independent halves (for its noise).
 pub struct Reference {
-    /// All paths.
+    /// The mean of the halves.
     pub film: Film,
-    /// Even chunks.
+    /// Grid 0's direct light and the light tracer's even chunks.
     pub half_a: Film,
-    /// Odd chunks.
+    /// Grid 1's direct light and the light tracer's odd chunks.
     pub half_b: Film,
 }
 
@@ -31,20 +45,106 @@ impl Reference {
     }
 }
 
-/// Loads the reference cached as `{dir}/{name}-{w}x{h}-{paths}.exr` (with `-a`/`-b` halves),
-/// or light-traces it with `paths` paths (on the current rayon pool) and caches it. `log`
-/// receives progress messages.
+/// How a reference is made.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReferenceSettings {
+    /// Light paths leaving the lights isotropically (indirect light).
+    pub light_paths: u64,
+    /// Light paths aimed at the specular meshes (caustics and what follows them).
+    pub caustic_paths: u64,
+    /// Camera rays per pixel along each axis of the two halves' direct light.
+    pub direct_grids: [u32; 2],
+}
+
+impl Default for ReferenceSettings {
+    /// The experiments' reference: 10^9 + 10^9 light paths, direct light on 16 x 16 and 17 x 17
+    /// grids.
+    fn default() -> Self {
+        ReferenceSettings {
+            light_paths: 1_000_000_000,
+            caustic_paths: 1_000_000_000,
+            direct_grids: [16, 17],
+        }
+    }
+}
+
+/// Makes the reference of `scene` (on the current rayon pool). `log` receives progress messages.
+pub fn make(
+    scene: &Scene,
+    embree: &embree::Scene,
+    settings: &ReferenceSettings,
+    log: &mut dyn FnMut(&str),
+) -> Result<Reference, String> {
+    let mut direct = Vec::new();
+    for &grid in &settings.direct_grids {
+        log(&format!(
+            "reference: direct light, {grid} x {grid} rays per pixel"
+        ));
+        let options = RenderOptions::default()
+            .with_view_grid(grid)
+            .with_area_strata(8)
+            .with_threads(rayon::current_num_threads());
+        direct.push(render(scene, embree, &[], &options, &mut Stats::default())?);
+    }
+    log(&format!(
+        "reference: light tracing {} + {} caustic paths",
+        settings.light_paths, settings.caustic_paths
+    ));
+    let options = LightTraceOptions {
+        paths: settings.light_paths,
+        caustic_paths: settings.caustic_paths,
+        direct: false,
+        ..LightTraceOptions::default()
+    };
+    let traced = LightTracer::new(scene, embree, &options).run(&indicatif::ProgressBar::hidden());
+    let sum = |a: &Film, b: &Film| Film {
+        width: a.width,
+        height: a.height,
+        pixels: a
+            .pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(x, y)| *x + *y)
+            .collect(),
+    };
+    let half_a = sum(&direct[0], &traced.half_a);
+    let half_b = sum(&direct[1], &traced.half_b);
+    let film = Film {
+        width: half_a.width,
+        height: half_a.height,
+        pixels: half_a
+            .pixels
+            .iter()
+            .zip(&half_b.pixels)
+            .map(|(a, b)| (*a + *b) * 0.5)
+            .collect(),
+    };
+    Ok(Reference {
+        film,
+        half_a,
+        half_b,
+    })
+}
+
+/// Loads the reference cached as `{dir}/{name}-{w}x{h}-{settings}.exr` (with `-a`/`-b`
+/// halves), or makes it ([`make`]) and caches it.
 pub fn load_or_make(
     scene: &Scene,
     embree: &embree::Scene,
     dir: &Path,
     name: &str,
-    paths: u64,
+    settings: &ReferenceSettings,
     log: &mut dyn FnMut(&str),
 ) -> Result<Reference, String> {
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let file =
-        |suffix: &str| -> PathBuf { dir.join(format!("{name}-{w}x{h}-{paths}{suffix}.exr")) };
+    let tag = format!(
+        "{}-{}-{}x{}",
+        settings.light_paths,
+        settings.caustic_paths,
+        settings.direct_grids[0],
+        settings.direct_grids[1]
+    );
+    let file = |suffix: &str| -> PathBuf { dir.join(format!("{name}-{w}x{h}-{tag}{suffix}.exr")) };
     if file("").exists() && file("-a").exists() && file("-b").exists() {
         log(&format!("reference: reading {}", file("").display()));
         let reference = Reference {
@@ -57,26 +157,14 @@ pub fn load_or_make(
         }
     }
     log(&format!(
-        "reference: light tracing {paths} paths (cached in {})",
+        "reference: making it (cached in {})",
         dir.display()
     ));
-    let options = LightTraceOptions {
-        paths,
-        ..LightTraceOptions::default()
-    };
-    let tracer = LightTracer::new(scene, embree, &options);
-    let result = tracer.run(&indicatif::ProgressBar::hidden());
+    let reference = make(scene, embree, settings, log)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let meta = vec![(
-        "photondiff/light_paths".to_string(),
-        result.paths.to_string(),
-    )];
-    result.film.write_exr(&file(""), &meta)?;
-    result.half_a.write_exr(&file("-a"), &meta)?;
-    result.half_b.write_exr(&file("-b"), &meta)?;
-    Ok(Reference {
-        film: result.film,
-        half_a: result.half_a,
-        half_b: result.half_b,
-    })
+    let meta = vec![("photondiff/reference".to_string(), tag.clone())];
+    reference.film.write_exr(&file(""), &meta)?;
+    reference.half_a.write_exr(&file("-a"), &meta)?;
+    reference.half_b.write_exr(&file("-b"), &meta)?;
+    Ok(reference)
 }

@@ -16,6 +16,14 @@
 //! Paths are traced in fixed chunks, alternately counted in two independent halves, so the
 //! reference's noise can be estimated from their difference. Chunks are summed in order: the
 //! result does not depend on the number of threads.
+//!
+//! Two options make a sharper reference for a given time (see [`crate::reference::cache`]):
+//! - `caustic_paths`: paths aimed at the specular meshes' bounding spheres (the caustic photon
+//!   emitter), for which a light's isotropic emission would spend ~1% of its paths. Global paths
+//!   whose direction falls in those cones are then skipped, so every direction is counted once:
+//!   the two sets partition the lights' emission and their sum stays unbiased.
+//! - `direct: false`: vertices reached straight from a light are not splatted; the caller adds
+//!   the renderer's exact direct light instead, which has no noise.
 
 use crate::embree::{self, Ray};
 use crate::photons::emission::Emitter;
@@ -42,6 +50,11 @@ pub struct LightTraceOptions {
     pub max_bounces: u32,
     /// Seed. Default 0.
     pub seed: u64,
+    /// Paths aimed at the specular meshes (see the module's doc). Default 0: none, every path
+    /// leaves the lights isotropically.
+    pub caustic_paths: u64,
+    /// Whether to splat vertices lit directly by a light (no bounce before them). Default true.
+    pub direct: bool,
 }
 
 impl Default for LightTraceOptions {
@@ -51,6 +64,8 @@ impl Default for LightTraceOptions {
             time_budget: None,
             max_bounces: 32,
             seed: 0,
+            caustic_paths: 0,
+            direct: true,
         }
     }
 }
@@ -63,7 +78,7 @@ pub struct LightTraceResult {
     pub half_a: Film,
     /// The odd chunks alone.
     pub half_b: Film,
-    /// Paths traced.
+    /// Paths traced (global and caustic).
     pub paths: u64,
     /// Rays traced (path segments and camera connections).
     pub rays: u64,
@@ -99,6 +114,7 @@ pub struct LightTracer<'a> {
     embree: &'a embree::Scene,
     options: &'a LightTraceOptions,
     emitter: Emitter,
+    caustic: Emitter,
     epsilon: f64,
     pixel_area: f64,
     paths: LightPaths<'a>,
@@ -123,6 +139,13 @@ impl<'a> LightTracer<'a> {
             // Overlap is irrelevant here: the differentials are not used.
             emitter: Emitter::global(scene, options.paths as usize, 1.0, options.seed)
                 .with_random_samples(),
+            caustic: Emitter::caustic(
+                scene,
+                options.caustic_paths.max(1) as usize,
+                1.0,
+                options.seed,
+            )
+            .with_random_samples(),
             epsilon,
             pixel_area,
             paths: LightPaths {
@@ -171,15 +194,32 @@ impl<'a> LightTracer<'a> {
         1
     }
 
-    /// Traces path `index`, appending its splats (unnormalised: as if it were the only path).
-    fn trace(&self, index: u64, out: &mut Vec<Splat>) -> u64 {
-        let mut rng = Rng::new(self.options.seed ^ (0x17 << 56), index);
-        let Some(emission) = self.emitter.emit(index, &mut rng) else {
+    /// Whether caustic paths are traced apart (and skipped among the global ones).
+    fn split(&self) -> bool {
+        self.options.caustic_paths > 0 && !self.caustic.is_empty()
+    }
+
+    /// Traces path `index` of the global (`caustic == false`) or caustic set, appending its
+    /// splats (unnormalised: as if it were the only path of its set).
+    fn trace(&self, index: u64, caustic: bool, out: &mut Vec<Splat>) -> u64 {
+        let stream = if caustic { 0x18 << 56 } else { 0x17 << 56 };
+        let mut rng = Rng::new(self.options.seed ^ stream, index);
+        let emitter = if caustic {
+            &self.caustic
+        } else {
+            &self.emitter
+        };
+        let Some((emission, light)) = emitter.emit_from_light(index, &mut rng) else {
             return 0;
         };
+        if !caustic && self.split() && self.caustic.covers(light, emission.ray.p, emission.ray.d) {
+            return 0;
+        }
         let mut connections = 0;
         let rays = self.paths.walk(emission, &mut rng, |v| {
-            connections += self.splat(v.ray.p, v.normal, v.power * v.albedo * FRAC_1_PI, out);
+            if self.options.direct || v.specular_bounces + v.diffuse_bounces > 0 {
+                connections += self.splat(v.ray.p, v.normal, v.power * v.albedo * FRAC_1_PI, out);
+            }
             true
         });
         rays + connections
@@ -189,66 +229,94 @@ impl<'a> LightTracer<'a> {
     /// by the paths traced.
     pub fn run(&self, progress: &indicatif::ProgressBar) -> LightTraceResult {
         let (w, h) = (self.scene.camera.width, self.scene.camera.height);
+        let n = (w * h) as usize;
+        // sums[set][half], counts[set][half]; set 0 = global paths, 1 = caustic paths.
         let mut sums = [
-            vec![DVec3::ZERO; (w * h) as usize],
-            vec![DVec3::ZERO; (w * h) as usize],
+            [vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]],
+            [Vec::new(), Vec::new()],
         ];
-        let mut counts = [0u64; 2];
-        let chunks = self.options.paths.div_ceil(CHUNK).max(1);
+        let mut counts = [[0u64; 2]; 2];
+        let jobs = self.jobs();
+        if self.split() {
+            sums[1] = [vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]];
+        }
         let start = Instant::now();
-        let round = (2 * rayon::current_num_threads()) as u64;
+        let round = 2 * rayon::current_num_threads();
         let mut next = 0;
         let mut rays = 0;
-        while next < chunks {
+        while next < jobs.len() {
             if let Some(budget) = self.options.time_budget {
                 if next > 0 && start.elapsed() >= budget {
                     break;
                 }
             }
-            let end = (next + round).min(chunks);
-            let results: Vec<(Vec<Splat>, u64)> = (next..end)
-                .into_par_iter()
-                .map(|chunk| {
+            let end = (next + round).min(jobs.len());
+            let results: Vec<(Vec<Splat>, u64)> = jobs[next..end]
+                .par_iter()
+                .map(|&(set, chunk)| {
                     let mut splats = Vec::new();
                     let mut rays = 0;
                     for index in chunk * CHUNK..(chunk + 1) * CHUNK {
-                        rays += self.trace(index, &mut splats);
+                        rays += self.trace(index, set == 1, &mut splats);
                     }
                     progress.inc(CHUNK);
                     (splats, rays)
                 })
                 .collect();
-            for (chunk, (splats, r)) in (next..end).zip(results) {
+            for (&(set, chunk), (splats, r)) in jobs[next..end].iter().zip(results) {
                 let half = (chunk % 2) as usize;
-                counts[half] += CHUNK;
+                counts[set][half] += CHUNK;
                 rays += r;
                 for s in splats {
-                    sums[half][s.pixel as usize] += glam::Vec3::from(s.value).as_dvec3();
+                    sums[set][half][s.pixel as usize] += glam::Vec3::from(s.value).as_dvec3();
                 }
             }
             next = end;
         }
-        let total = counts[0] + counts[1];
-        let film_of = |sum: &[DVec3], n: u64| Film {
+        let film_of = |f: &dyn Fn(usize) -> DVec3| Film {
             width: w,
             height: h,
-            pixels: sum.iter().map(|s| *s / n.max(1) as f64).collect(),
+            pixels: (0..n).map(f).collect(),
         };
-        let film = Film {
-            width: w,
-            height: h,
-            pixels: sums[0]
-                .iter()
-                .zip(&sums[1])
-                .map(|(a, b)| (*a + *b) / total.max(1) as f64)
-                .collect(),
+        let sets = if self.split() { 2 } else { 1 };
+        let film = film_of(&|i| {
+            (0..sets)
+                .map(|s| {
+                    (sums[s][0][i] + sums[s][1][i]) / (counts[s][0] + counts[s][1]).max(1) as f64
+                })
+                .sum()
+        });
+        let half = |k: usize| {
+            film_of(&|i| {
+                (0..sets)
+                    .map(|s| sums[s][k][i] / counts[s][k].max(1) as f64)
+                    .sum()
+            })
         };
         LightTraceResult {
             film,
-            half_a: film_of(&sums[0], counts[0]),
-            half_b: film_of(&sums[1], counts[1]),
-            paths: total,
+            half_a: half(0),
+            half_b: half(1),
+            paths: counts.iter().flatten().sum(),
             rays,
         }
+    }
+
+    /// The chunks to trace, as (set, chunk index): the global paths' chunks and, when caustic
+    /// paths are traced apart, theirs interleaved in proportion, so that a time budget stops
+    /// both sets at the same fraction.
+    fn jobs(&self) -> Vec<(usize, u64)> {
+        let global = self.options.paths.div_ceil(CHUNK).max(1);
+        let caustic = if self.split() {
+            self.options.caustic_paths.div_ceil(CHUNK)
+        } else {
+            0
+        };
+        let mut jobs: Vec<(f64, usize, u64)> = (0..global)
+            .map(|c| ((c as f64 + 0.5) / global as f64, 0, c))
+            .chain((0..caustic).map(|c| ((c as f64 + 0.5) / caustic as f64, 1, c)))
+            .collect();
+        jobs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        jobs.into_iter().map(|(_, set, c)| (set, c)).collect()
     }
 }

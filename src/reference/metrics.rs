@@ -22,6 +22,10 @@ pub struct Regions {
     pub caustic: Vec<usize>,
     /// The tenth of the caustic pixels with the largest reference gradient (its contour).
     pub contour: Vec<usize>,
+    /// Diffuse pixels outside the caustic where every point and spot light is blocked at the
+    /// pixel's centre, though some would light it unblocked: the shadows, dim and easy to
+    /// overlook, where streaks show. (Empty in a scene lit by quad lights alone.)
+    pub shadow: Vec<usize>,
 }
 
 /// Radiance the point and spot lights would reflect at a diffuse point `x` (normal `n` facing
@@ -40,6 +44,19 @@ fn unblocked_direct(scene: &Scene, x: DVec3, n: DVec3, albedo: DVec3) -> DVec3 {
     sum * albedo * FRAC_1_PI
 }
 
+/// Whether every point and spot light is blocked from `x` (normal `n`, facing the eye).
+fn blocked(scene: &Scene, embree: &embree::Scene, x: DVec3, n: DVec3, epsilon: f64) -> bool {
+    let origin = x + n * epsilon;
+    scene.lights.iter().all(|light| match *light {
+        Light::Point { position, .. } | Light::Spot { position, .. } => {
+            let to = position - origin;
+            let d = to.length();
+            n.dot(to) <= 0.0 || embree.occluded(&Ray::segment(origin, to / d, d * (1.0 - 1e-9)))
+        }
+        Light::Quad { .. } => true,
+    })
+}
+
 impl Regions {
     /// The regions of `scene`'s image given the `reference`.
     pub fn new(scene: &Scene, embree: &embree::Scene, reference: &Film) -> Self {
@@ -47,6 +64,8 @@ impl Regions {
         let (w, h) = (c.width as usize, c.height as usize);
         let mut diffuse = Vec::new();
         let mut caustic = Vec::new();
+        let mut shadowed = Vec::new();
+        let epsilon = scene.ray_epsilon();
         for y in 0..h {
             for x in 0..w {
                 let r = c.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
@@ -65,6 +84,10 @@ impl Regions {
                     && (value.x + value.y + value.z) > 1.5 * (direct.x + direct.y + direct.z)
                 {
                     caustic.push(i);
+                } else if direct.max_element() > 0.0
+                    && blocked(scene, embree, hit.position, n, epsilon)
+                {
+                    shadowed.push(i);
                 }
             }
         }
@@ -100,6 +123,7 @@ impl Regions {
             lit,
             caustic,
             contour,
+            shadow: shadowed,
         }
     }
 }
