@@ -75,8 +75,7 @@ fn progressive(
     view_grid: u32,
     budgets: &[f64],
     threads: usize,
-    reference: &Reference,
-    regions: &Regions,
+    (reference, regions): (&Reference, &Regions),
 ) -> Result<Vec<(f64, [f64; 4])>, String> {
     let photons = PhotonOptions::default();
     let estimator = EstimatorSettings {
@@ -228,7 +227,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             eprintln!("{name}: {method}");
             let points = pool.install(|| {
                 progressive(
-                    scene, &embree, kind, grid, &budgets, threads, &reference, &regions,
+                    scene,
+                    &embree,
+                    kind,
+                    grid,
+                    &budgets,
+                    threads,
+                    (&reference, &regions),
                 )
             })?;
             curves.push(Curve {
