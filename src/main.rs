@@ -23,6 +23,10 @@ enum Command {
     /// Make a scene's reference image: direct light supersampled, the rest light-traced, with
     /// two independent halves for its noise.
     Reference(cli::reference::ReferenceArgs),
+    /// Join the parts of a split render (`render --tile I/N`) into the whole image.
+    Merge(cli::merge::MergeArgs),
+    /// Trace a scene's photon maps once and write them for `render --photon-maps`.
+    Photons(cli::photons::PhotonsArgs),
 }
 
 fn main() -> ExitCode {
@@ -30,6 +34,8 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Render(args) => cli::render::run(&args),
         Command::Reference(args) => cli::reference::run(&args),
+        Command::Merge(args) => cli::merge::run(&args),
+        Command::Photons(args) => cli::photons::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,5 +1,7 @@
 //! The subcommands of the command line, one file each, and what they share.
 
+pub mod merge;
+pub mod photons;
 pub mod reference;
 pub mod render;
 

@@ -7,8 +7,11 @@ use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::passes::{PassReport, DEFAULT_ALPHA};
 use photondiff::render::stats::Stats;
-use photondiff::render::{Progressive, RenderOptions, StopRules};
+use photondiff::render::{
+    load_photon_maps, Progressive, RenderOptions, StopRules, TileSplit, Window,
+};
 use photondiff::scene::file::load_scene;
+use photondiff::scene::hash::{hex, scene_hash};
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
@@ -88,6 +91,15 @@ pub struct RenderArgs {
     /// times pass i's (i from 1), ALPHA in (0, 1).
     #[arg(long, value_name = "ALPHA", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
     alpha: f64,
+    /// Read the photon maps from MAPS (written by `photondiff photons` for this scene with the
+    /// same photon settings) instead of tracing them (for the first pass; later passes trace
+    /// their own).
+    #[arg(long, value_name = "MAPS")]
+    photon_maps: Option<PathBuf>,
+    /// Render only tile I of N (I counts from 0): horizontal bands of whole 16-pixel tile rows,
+    /// written as an EXR whose data window is the band; `photondiff merge` joins them.
+    #[arg(long, value_name = "I/N")]
+    tile: Option<String>,
     /// No progress bar and no statistics summary.
     #[arg(short, long)]
     quiet: bool,
@@ -100,6 +112,24 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let scene = stats
         .time("load scene", || load_scene(&args.scene))
         .map_err(|e| e.to_string())?;
+    let hash = scene_hash(&args.scene)?;
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    // Parsed here rather than by clap, so that a bad split is a one-line error with status 1.
+    let tile: Option<TileSplit> = match &args.tile {
+        Some(t) => Some(t.parse().map_err(|e| format!("--tile {e}"))?),
+        None => None,
+    };
+    let window = match &tile {
+        Some(tile) => {
+            if args.estimator == EstimatorKind::Lighttrace {
+                return Err(
+                    "--tile cannot split --estimator lighttrace (its paths reach any pixel)".into(),
+                );
+            }
+            Some(tile.window(width, height)?)
+        }
+        None => None,
+    };
     let device = Device::new().map_err(|e| e.to_string())?;
     let embree = stats
         .time("build BVH", || scene.build_embree(&device))
@@ -110,7 +140,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         .with_seed(args.seed)
         .with_max_depth(args.max_depth)
         .with_area_strata(args.area_samples)
-        .with_progress(!args.quiet && std::io::stderr().is_terminal());
+        .with_progress(!args.quiet && std::io::stderr().is_terminal())
+        .with_window(window);
     let photon_options = PhotonOptions {
         global_photons: args.global_photons,
         caustic_photons: args.caustic_photons,
@@ -163,7 +194,15 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             render: options.clone(),
             alpha: args.alpha,
         };
-        let sum = progressive.run(&stop, options.progress, &mut stats)?;
+        // Photon maps from a file stand for pass 0's, whose settings they must match.
+        let maps = match (&args.photon_maps, args.estimator) {
+            (Some(path), kind) if kind != EstimatorKind::Direct => {
+                let (pass0, _, _) = progressive.pass_settings(0);
+                Some(load_photon_maps(path, hash, &pass0, &mut stats)?)
+            }
+            _ => None,
+        };
+        let sum = progressive.run_with_maps(&stop, maps, options.progress, &mut stats)?;
         sum.mean()
     };
 
@@ -185,6 +224,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             "photondiff/scene".to_string(),
             args.scene.display().to_string(),
         ),
+        ("photondiff/scene_hash".to_string(), hex(hash)),
         (
             "photondiff/view_grid".to_string(),
             args.view_grid.to_string(),
@@ -230,16 +270,20 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if let Some(p) = &stats.progressive {
         metadata.extend(pass_metadata(p));
     }
+    if let Some(tile) = &tile {
+        metadata.push(("photondiff/tile".to_string(), tile.to_string()));
+    }
+    let window = options.window.unwrap_or(Window::full(width, height));
     create_parent(&exr)?;
     create_parent(&png)?;
     stats.time("write images", || -> Result<(), String> {
-        film.write_exr(&exr, &metadata)?;
+        film.write_exr_window(&exr, &metadata, (window.x0, window.y0), (width, height))?;
         film.write_png(&png)
     })?;
     if let Some(path) = &args.stats_json {
         create_parent(path)?;
         let json = serde_json::to_string_pretty(&stats).map_err(|e| e.to_string())?;
-        std::fs::write(path, json).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+        photondiff::util::atomic::write_bytes(path, json.as_bytes())?;
     }
     if !args.quiet {
         eprint!("{}", stats.summary());

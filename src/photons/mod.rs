@@ -3,6 +3,7 @@
 //! footprint ([`footprint`]), gathered into photon maps ([`map`]).
 
 pub mod emission;
+pub mod file;
 pub mod footprint;
 pub mod light_path;
 pub mod map;

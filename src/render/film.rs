@@ -29,30 +29,48 @@ impl Film {
         self.pixels[(y * self.width + x) as usize]
     }
 
-    /// Writes a linear float (32-bit) RGB EXR with `metadata` as string attributes.
+    /// Writes a linear float (32-bit) RGB EXR with `metadata` as string attributes, atomically
+    /// (see [`crate::util::atomic`]).
     pub fn write_exr(&self, path: &Path, metadata: &[(String, String)]) -> Result<(), String> {
+        self.write_exr_window(path, metadata, (0, 0), (self.width, self.height))
+    }
+
+    /// Writes the film as the part of a larger image of `display` pixels whose top-left pixel is
+    /// `origin`: the EXR's data window is the film, its display window the whole image.
+    pub fn write_exr_window(
+        &self,
+        path: &Path,
+        metadata: &[(String, String)],
+        origin: (u32, u32),
+        display: (u32, u32),
+    ) -> Result<(), String> {
         use exr::prelude::*;
         let width = self.width as usize;
         let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
             let p = self.pixels[pos.y() * width + pos.x()];
             (p.x as f32, p.y as f32, p.z as f32)
         });
+        let mut attributes = LayerAttributes::named("photondiff");
+        attributes.layer_position = Vec2(origin.0 as i32, origin.1 as i32);
+        for (key, value) in metadata {
+            if let (Some(k), Some(v)) = (Text::new_or_none(key), Text::new_or_none(value)) {
+                attributes.other.insert(k, AttributeValue::Text(v));
+            }
+        }
         let layer = Layer::new(
             (self.width as usize, self.height as usize),
-            LayerAttributes::named("photondiff"),
+            attributes,
             Encoding::FAST_LOSSLESS,
             channels,
         );
-        let mut image = Image::from_layer(layer);
-        for (key, value) in metadata {
-            if let (Some(k), Some(v)) = (Text::new_or_none(key), Text::new_or_none(value)) {
-                image.attributes.other.insert(k, AttributeValue::Text(v));
-            }
-        }
+        let bounds = IntegerBounds::from_dimensions((display.0 as usize, display.1 as usize));
+        let image = Image::new(ImageAttributes::new(bounds), layer);
+        let mut bytes = std::io::Cursor::new(Vec::new());
         image
             .write()
-            .to_file(path)
-            .map_err(|e| format!("{}: cannot write EXR: {e}", path.display()))
+            .to_buffered(&mut bytes)
+            .map_err(|e| format!("{}: cannot write EXR: {e}", path.display()))?;
+        crate::util::atomic::write_bytes(path, bytes.get_ref())
     }
 
     /// Reads the first RGB(A) layer of an EXR file.
@@ -69,7 +87,8 @@ impl Film {
         Ok(image.layer_data.channel_data.pixels)
     }
 
-    /// Writes an 8-bit sRGB PNG preview (radiance clamped to [0, 1], no tone mapping beyond that).
+    /// Writes an 8-bit sRGB PNG preview (radiance clamped to [0, 1], no tone mapping beyond
+    /// that), atomically.
     pub fn write_png(&self, path: &Path) -> Result<(), String> {
         let bytes: Vec<u8> = self
             .pixels
@@ -77,14 +96,17 @@ impl Film {
             .flat_map(|p| p.to_array())
             .map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8)
             .collect();
-        image::save_buffer(
-            path,
+        let mut png = std::io::Cursor::new(Vec::new());
+        image::write_buffer_with_format(
+            &mut png,
             &bytes,
             self.width,
             self.height,
             image::ExtendedColorType::Rgb8,
+            image::ImageFormat::Png,
         )
-        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
+        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
+        crate::util::atomic::write_bytes(path, png.get_ref())
     }
 }
 

@@ -11,6 +11,7 @@ use crate::geometry::surface::facing;
 use crate::render::camera_path::{DiffuseVertex, PathTally, ViewPaths};
 use crate::render::direct_light::DirectLight;
 use crate::render::film::Film;
+use crate::render::split::Window;
 use crate::render::stats::{RayCounts, Stats};
 use crate::scene::Scene;
 use crate::util::rng::Rng;
@@ -40,6 +41,9 @@ pub struct RenderOptions {
     /// Default `[0.5, 0.5]`: the centre. Progressive passes move it from pass to pass
     /// ([`crate::render::passes`]).
     pub jitter: [f64; 2],
+    /// The part of the image to render (whole render tiles, see [`crate::render::split`]);
+    /// `None`, the default, renders all of it.
+    pub window: Option<Window>,
 }
 
 impl Default for RenderOptions {
@@ -52,6 +56,7 @@ impl Default for RenderOptions {
             threads: 0,
             progress: false,
             jitter: [0.5, 0.5],
+            window: None,
         }
     }
 }
@@ -92,6 +97,17 @@ impl RenderOptions {
         self.jitter = jitter;
         self
     }
+    /// Sets [`RenderOptions::window`].
+    pub fn with_window(mut self, window: Option<Window>) -> Self {
+        self.window = window;
+        self
+    }
+    /// The size of the film a render with these options makes for a `width` x `height`
+    /// camera: the window's, or the whole image's.
+    pub fn film_size(&self, width: u32, height: u32) -> (u32, u32) {
+        self.window
+            .map_or((width, height), |w| (w.width(), w.height()))
+    }
 }
 
 /// A rendered image and where the first estimator (the caustic map's, as
@@ -124,7 +140,8 @@ struct Tile {
 }
 
 /// Renders `scene` (already built into `embree`) and records the "render" stage in `stats`.
-/// Radiance at each diffuse hit is the direct light plus the sum of the `estimators` (the
+/// The film is the options' window (the whole image by default), its pixels bit-identical to
+/// the same pixels of a whole render. Radiance at each diffuse hit is the direct light plus the sum of the `estimators` (the
 /// caustic and global photon map estimates; none for direct light only).
 pub fn render(
     scene: &Scene,
@@ -151,9 +168,11 @@ pub fn render_image(
         ));
     }
     let (width, height) = (scene.camera.width, scene.camera.height);
-    let tiles: Vec<Tile> = (0..height.div_ceil(TILE_SIZE))
+    let window = options.window.unwrap_or(Window::full(width, height));
+    window.check(width, height)?;
+    let tiles: Vec<Tile> = (window.y0 / TILE_SIZE..window.y1.div_ceil(TILE_SIZE))
         .flat_map(|ty| {
-            (0..width.div_ceil(TILE_SIZE)).map(move |tx| Tile {
+            (window.x0 / TILE_SIZE..window.x1.div_ceil(TILE_SIZE)).map(move |tx| Tile {
                 x0: tx * TILE_SIZE,
                 y0: ty * TILE_SIZE,
                 x1: ((tx + 1) * TILE_SIZE).min(width),
@@ -182,14 +201,15 @@ pub fn render_image(
         })
     });
     progress.finish_and_clear();
-    let mut film = Film::new(width, height);
+    let mut film = Film::new(window.width(), window.height());
     let mut reach = vec![false; film.pixels.len()];
     for (tile, result) in tiles.iter().zip(&results) {
         let tw = (tile.x1 - tile.x0) as usize;
         for (k, p) in result.pixels.iter().enumerate() {
             let (x, y) = (tile.x0 + (k % tw) as u32, tile.y0 + (k / tw) as u32);
-            film.pixels[(y * width + x) as usize] = *p;
-            reach[(y * width + x) as usize] = result.reach[k];
+            let i = ((y - window.y0) * window.width() + (x - window.x0)) as usize;
+            film.pixels[i] = *p;
+            reach[i] = result.reach[k];
         }
         stats.rays.add(&result.rays);
         stats.paths_cut_at_max_depth += result.cut_at_max_depth;

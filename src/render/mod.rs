@@ -8,12 +8,16 @@ pub mod camera_path;
 pub mod direct_light;
 pub mod film;
 pub mod image;
+pub mod merge;
 pub mod noise;
+pub mod part;
 pub mod pass_sum;
 pub mod passes;
 pub mod photon_pass;
+pub mod split;
 pub mod stats;
 
 pub use image::{render, render_image, RenderOptions, RenderedImage, TILE_SIZE};
 pub use passes::{Progressive, StopRules};
-pub use photon_pass::trace_photon_maps;
+pub use photon_pass::{load_photon_maps, trace_photon_maps};
+pub use split::{TileSplit, Window};

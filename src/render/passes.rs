@@ -31,6 +31,7 @@ use crate::embree;
 use crate::estimate::{EstimatorKind, EstimatorSettings, RadianceEstimator};
 use crate::geometry::sampling::r2;
 use crate::photons::trace::PhotonOptions;
+use crate::photons::PhotonMaps;
 use crate::render::image::{render_image, RenderOptions, RenderedImage};
 use crate::render::noise::NoiseEstimate;
 use crate::render::pass_sum::PassSum;
@@ -152,6 +153,18 @@ impl Progressive<'_> {
         progress: bool,
         stats: &mut Stats,
     ) -> Result<RenderedImage, String> {
+        self.render_pass_with(pass, None, progress, stats)
+    }
+
+    /// [`Progressive::render_pass`] with the pass's photon maps, when given, instead of
+    /// tracing them (read from a file: `render --photon-maps`).
+    pub fn render_pass_with(
+        &self,
+        pass: u64,
+        maps: Option<PhotonMaps>,
+        progress: bool,
+        stats: &mut Stats,
+    ) -> Result<RenderedImage, String> {
         let (photons, settings, render) = self.pass_settings(pass);
         let render = render.with_progress(progress);
         let maps = match settings.kind {
@@ -159,14 +172,17 @@ impl Progressive<'_> {
             EstimatorKind::Lighttrace => {
                 return Err("the light tracer has no progressive passes".to_string())
             }
-            _ => Some(trace_photon_maps(
-                self.scene,
-                self.embree,
-                &photons,
-                render.threads,
-                progress,
-                stats,
-            )?),
+            _ => Some(match maps {
+                Some(maps) => maps,
+                None => trace_photon_maps(
+                    self.scene,
+                    self.embree,
+                    &photons,
+                    render.threads,
+                    progress,
+                    stats,
+                )?,
+            }),
         };
         let estimators = maps
             .as_ref()
@@ -179,7 +195,8 @@ impl Progressive<'_> {
     /// Renders the passes of `range` and sums them (what a worker rendering part of a run does;
     /// [`PassSum::merge`] joins the parts).
     pub fn render_range(&self, range: Range<u64>, stats: &mut Stats) -> Result<PassSum, String> {
-        let mut sum = PassSum::new(self.scene.camera.width, self.scene.camera.height);
+        let (width, height) = self.film_size();
+        let mut sum = PassSum::new(width, height);
         for pass in range {
             let mut pass_stats = Stats::default();
             sum.add(&self.render_pass(pass, false, &mut pass_stats)?);
@@ -198,10 +215,28 @@ impl Progressive<'_> {
         progress: bool,
         stats: &mut Stats,
     ) -> Result<PassSum, String> {
+        self.run_with_maps(stop, None, progress, stats)
+    }
+
+    /// The size of each pass's film: the render options' window, or the whole image.
+    fn film_size(&self) -> (u32, u32) {
+        let camera = &self.scene.camera;
+        self.render.film_size(camera.width, camera.height)
+    }
+
+    /// [`Progressive::run`] with pass 0's photon maps, when given, instead of tracing them.
+    pub fn run_with_maps(
+        &self,
+        stop: &StopRules,
+        mut maps: Option<PhotonMaps>,
+        progress: bool,
+        stats: &mut Stats,
+    ) -> Result<PassSum, String> {
         let single = stop.passes == Some(1);
         let bar = crate::util::progress::pass_bar(progress && !single, stop.passes);
         let start = Instant::now();
-        let mut sum = PassSum::new(self.scene.camera.width, self.scene.camera.height);
+        let (width, height) = self.film_size();
+        let mut sum = PassSum::new(width, height);
         let mut noise = NoiseEstimate::default();
         let reason = loop {
             let done = sum.passes;
@@ -221,7 +256,13 @@ impl Progressive<'_> {
                 }
             }
             let mut pass_stats = Stats::default();
-            sum.add(&self.render_pass(done, progress && single, &mut pass_stats)?);
+            let pass_maps = if done == 0 { maps.take() } else { None };
+            sum.add(&self.render_pass_with(
+                done,
+                pass_maps,
+                progress && single,
+                &mut pass_stats,
+            )?);
             stats.absorb_pass(pass_stats);
             noise = NoiseEstimate::of(&sum);
             let elapsed = start.elapsed().as_secs_f64();

@@ -5,7 +5,7 @@ use super::stats::{MapStats, Stats};
 use crate::embree;
 use crate::photons::emission::Emitter;
 use crate::photons::map::PathClass;
-use crate::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+use crate::photons::trace::{PhotonOptions, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
 
@@ -52,6 +52,28 @@ pub fn trace_photon_maps(
         })
     });
     bar.finish_and_clear();
+    record(&maps, &counts, stats);
+    Ok(maps)
+}
+
+/// Reads photon maps traced earlier (`photondiff photons`) from `path` instead of tracing
+/// them, recording a "load photons" stage; the file must be for the scene with content hash
+/// `scene_hash` and traced with `options` (see [`crate::photons::file`]).
+pub fn load_photon_maps(
+    path: &std::path::Path,
+    scene_hash: u64,
+    options: &PhotonOptions,
+    stats: &mut Stats,
+) -> Result<PhotonMaps, String> {
+    let (maps, counts) = stats.time("load photons", || {
+        crate::photons::file::read(path, scene_hash, options)
+    })?;
+    record(&maps, &counts, stats);
+    Ok(maps)
+}
+
+/// Records the maps' statistics.
+fn record(maps: &PhotonMaps, counts: &[TraceCounts; 2], stats: &mut Stats) {
     for (map, c) in [&maps.caustic, &maps.global].into_iter().zip(counts) {
         let p = map.total_power();
         stats.photon_maps.push(MapStats {
@@ -63,5 +85,4 @@ pub fn trace_photon_maps(
             guards: map.guards,
         });
     }
-    Ok(maps)
 }

@@ -4,6 +4,7 @@
 
 pub mod camera;
 pub mod file;
+pub mod hash;
 pub mod mesh_file;
 pub mod shapes;
 

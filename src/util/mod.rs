@@ -1,4 +1,6 @@
-//! Small utilities every stage shares: random number streams and progress bars.
+//! Small utilities every stage shares: random number streams, progress bars and atomic file
+//! output.
 
+pub mod atomic;
 pub mod progress;
 pub mod rng;

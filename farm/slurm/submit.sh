@@ -1,0 +1,80 @@
+#!/bin/sh
+# Submits a split render of SCENE to Slurm: one job tracing the photon maps, a job array
+# rendering one tile per task with them, and a merge job that runs only if every tile
+# succeeded (afterok; --kill-on-invalid-dep=yes cancels it when a tile fails instead of
+# leaving it pending forever). Prints the job ids and the final image's path.
+#
+#   farm/slurm/submit.sh [--tiles N] [--cpus-per-task C] [--array LIST] [--partition P]
+#                        [--photons N] [--caustic-photons N] [--overlap X] [--seed S]
+#                        SCENE OUTDIR [-- RENDER_OPTIONS...]
+#
+#   --tiles N            tiles (array tasks), default 4
+#   --cpus-per-task C    CPUs of each task, passed to photondiff as --threads; default 2
+#   --array LIST         only these tile indices (e.g. 2 or 1,3): re-runs failed tasks, reusing
+#                        OUTDIR/photons.pdm when it exists, then merges all parts again
+#   --partition P        Slurm partition (default: the cluster's default)
+#   --photons, --caustic-photons, --overlap, --seed: photon settings, for the maps and the tiles
+#   RENDER_OPTIONS       further `photondiff render` options, e.g. --estimator multisampled
+#
+# OUTDIR must be on a file system every node sees. Writes OUTDIR/photons.pdm,
+# OUTDIR/parts/tile-I-of-N.exr, OUTDIR/<scene name>.exr (+ .png, .stats.json) and the jobs'
+# logs in OUTDIR/logs. The photondiff binary: $PHOTONDIFF, else photondiff on PATH, else
+# target/release/photondiff of this repository.
+set -eu
+here=$(cd "$(dirname "$0")" && pwd)
+tiles=4 cpus=2 array= partition= photon_options=
+usage() { sed -n '2,/^set -eu/p' "$0" | sed '$d; s/^# \{0,1\}//' >&2; exit 1; }
+while [ $# -gt 0 ]; do
+    case $1 in
+        --tiles) tiles=$2; shift 2 ;;
+        --cpus-per-task) cpus=$2; shift 2 ;;
+        --array) array=$2; shift 2 ;;
+        --partition) partition=$2; shift 2 ;;
+        --photons|--caustic-photons|--overlap|--seed)
+            photon_options="$photon_options $1 $2"; shift 2 ;;
+        -h|--help) usage ;;
+        -*) echo "submit.sh: unknown option $1" >&2; usage ;;
+        *) break ;;
+    esac
+done
+[ $# -ge 2 ] || usage
+scene=$(realpath "$1")
+mkdir -p "$2"
+out=$(realpath "$2")
+shift 2
+[ "${1:-}" = "--" ] && shift
+case $tiles in ''|*[!0-9]*) echo "submit.sh: --tiles must be a number, got $tiles" >&2; exit 1 ;; esac
+if [ -n "${PHOTONDIFF:-}" ]; then
+    photondiff=$(realpath "$PHOTONDIFF")
+elif command -v photondiff >/dev/null; then
+    photondiff=$(command -v photondiff)
+else
+    photondiff=$(realpath "$here/../../target/release/photondiff")
+fi
+[ -x "$photondiff" ] || { echo "submit.sh: no photondiff binary at $photondiff (cargo build --release, or set PHOTONDIFF)" >&2; exit 1; }
+stem=$(basename "$scene"); stem=${stem%.*}
+maps=$out/photons.pdm parts=$out/parts logs=$out/logs image=$out/$stem.exr
+mkdir -p "$parts" "$logs"
+common="--parsable"
+[ -n "$partition" ] && common="$common --partition=$partition"
+
+# Photon maps: traced once, unless re-running some tiles with maps already there.
+dependency=
+if [ -z "$array" ] || [ ! -e "$maps" ]; then
+    # shellcheck disable=SC2086 # word splitting of the option lists is intended
+    photons_job=$(sbatch $common --cpus-per-task="$cpus" --output="$logs/photons-%j.out" \
+        "$here/photons.sbatch" "$photondiff" "$scene" "$maps" $photon_options)
+    echo "photons job: $photons_job"
+    dependency="--dependency=afterok:$photons_job --kill-on-invalid-dep=yes"
+fi
+# shellcheck disable=SC2086
+tiles_job=$(sbatch $common --cpus-per-task="$cpus" $dependency --array="${array:-0-$((tiles - 1))}" \
+    --output="$logs/tile-%A_%a.out" \
+    "$here/tile.sbatch" "$photondiff" "$scene" "$maps" "$parts" "$tiles" $photon_options "$@")
+echo "tile jobs: $tiles_job (array ${array:-0-$((tiles - 1))})"
+# shellcheck disable=SC2086
+merge_job=$(sbatch $common --cpus-per-task=1 --dependency="afterok:$tiles_job" --kill-on-invalid-dep=yes \
+    --output="$logs/merge-%j.out" \
+    "$here/merge.sbatch" "$photondiff" "$parts" "$tiles" "$image")
+echo "merge job: $merge_job"
+echo "image: $image"

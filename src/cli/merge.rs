@@ -1,0 +1,53 @@
+//! `photondiff merge`: the parts of a split render (`render --tile I/N`) into the whole image.
+
+use super::create_parent;
+use photondiff::render::merge::merge;
+use photondiff::render::part::read_part;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct MergeArgs {
+    /// The parts: EXR files written by `photondiff render --tile I/N`, one per tile, any order.
+    #[arg(required = true, value_name = "PARTS")]
+    parts: Vec<PathBuf>,
+    /// The whole image (linear float RGB EXR with the parts' settings and the statistics of the
+    /// whole in its attributes).
+    #[arg(short = 'o', long = "output", value_name = "OUT.exr")]
+    output: PathBuf,
+    /// sRGB preview of the whole. Default: the EXR path with a .png extension.
+    #[arg(long, value_name = "OUT.png")]
+    png: Option<PathBuf>,
+    /// Write the statistics of the whole (counts and times summed over the parts) as JSON.
+    #[arg(long, value_name = "FILE")]
+    stats_json: Option<PathBuf>,
+}
+
+/// Runs `photondiff merge`; nothing is written unless every check passes.
+pub fn run(args: &MergeArgs) -> Result<(), String> {
+    let parts = args
+        .parts
+        .iter()
+        .map(|p| read_part(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    let merged = merge(&parts)?;
+    let png = args
+        .png
+        .clone()
+        .unwrap_or_else(|| args.output.with_extension("png"));
+    create_parent(&args.output)?;
+    create_parent(&png)?;
+    merged.film.write_exr(&args.output, &merged.metadata)?;
+    merged.film.write_png(&png)?;
+    if let Some(path) = &args.stats_json {
+        create_parent(path)?;
+        let json = serde_json::to_string_pretty(&merged.stats).map_err(|e| e.to_string())?;
+        photondiff::util::atomic::write_bytes(path, json.as_bytes())?;
+    }
+    println!(
+        "merged {} parts into {} and {}",
+        parts.len(),
+        args.output.display(),
+        png.display()
+    );
+    Ok(())
+}

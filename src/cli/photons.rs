@@ -1,0 +1,90 @@
+//! `photondiff photons`: traces a scene's photon maps once and writes them to a file that
+//! `render --photon-maps` reads (format: `photondiff::photons::file`).
+
+use super::create_parent;
+use photondiff::embree::Device;
+use photondiff::photons::file;
+use photondiff::photons::trace::{PhotonOptions, TraceCounts};
+use photondiff::render::stats::Stats;
+use photondiff::render::trace_photon_maps;
+use photondiff::scene::file::load_scene;
+use photondiff::scene::hash::scene_hash;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct PhotonsArgs {
+    /// The scene file.
+    scene: PathBuf,
+    /// The photon-map file to write.
+    #[arg(short = 'o', long = "output", value_name = "MAPS")]
+    output: PathBuf,
+    /// Global photons: emissions traced for the global map (as `render --photons`).
+    #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
+    global_photons: usize,
+    /// Photons stored in the caustic map (as `render --caustic-photons`).
+    #[arg(long, value_name = "N", default_value_t = 20_000)]
+    caustic_photons: usize,
+    /// Photon footprint size (as `render --overlap`).
+    #[arg(long, value_name = "X", default_value_t = 32.0)]
+    overlap: f64,
+    /// Seed of the photons' random streams (as `render --seed`).
+    #[arg(long, value_name = "S", default_value_t = 0)]
+    seed: u64,
+    /// Worker threads (0 = one per core); the maps are identical for any count.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    threads: usize,
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+/// Runs `photondiff photons`.
+pub fn run(args: &PhotonsArgs) -> Result<(), String> {
+    if !(args.overlap.is_finite() && args.overlap > 0.0) {
+        return Err(format!(
+            "--overlap must be a positive number, got {}",
+            args.overlap
+        ));
+    }
+    let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;
+    let hash = scene_hash(&args.scene)?;
+    let device = Device::new().map_err(|e| e.to_string())?;
+    let embree = scene
+        .build_embree(&device)
+        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    let options = PhotonOptions {
+        global_photons: args.global_photons,
+        caustic_photons: args.caustic_photons,
+        overlap: args.overlap,
+        seed: args.seed,
+        ..PhotonOptions::default()
+    };
+    let mut stats = Stats::default();
+    let progress = !args.quiet && std::io::stderr().is_terminal();
+    let maps = trace_photon_maps(
+        &scene,
+        &embree,
+        &options,
+        args.threads,
+        progress,
+        &mut stats,
+    )?;
+    let counts: [TraceCounts; 2] = [0, 1].map(|i| {
+        let m = &stats.photon_maps[i];
+        TraceCounts {
+            emitted: m.emitted,
+            stored: m.stored,
+            rays: m.rays,
+        }
+    });
+    create_parent(&args.output)?;
+    file::write(&args.output, &maps, &counts, hash, &options)?;
+    println!(
+        "wrote {}: {} caustic and {} global photons",
+        args.output.display(),
+        maps.caustic.len(),
+        maps.global.len()
+    );
+    Ok(())
+}

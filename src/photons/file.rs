@@ -1,0 +1,340 @@
+//! Photon maps as files: traced once (`photondiff photons`), read by every process of a split
+//! render (`render --photon-maps`).
+//!
+//! Format, version 1, all integers and floats little-endian:
+//!
+//! | bytes | content |
+//! |---|---|
+//! | 8 | magic `PDPHOTON` |
+//! | 4 | format version (u32) |
+//! | 4 | header length `H` (u32) |
+//! | `H` | header: JSON `{"scene_hash": "<16 hex digits>", "settings": {..}, "payload_bytes": P}` |
+//! | `P` | payload: the caustic map, then the global map |
+//! | 8 | checksum: XXH3-64 of every byte before it |
+//!
+//! A map is `emitted, stored, rays` (u64: its [`TraceCounts`]), its guard counts
+//! (`clamped_min, clamped_max, clamped_anisotropy, fallback`, u64), the photon count `n` (u64),
+//! then `n` photons of 20 f32 each: position, normal, direction, power (3 each), the filter
+//! matrix rows `m[0]`, `m[1]` (3 each), `inv_area`, `radius`. The settings are the photon
+//! options as the command line spells them (`--photons`, `--caustic-photons`, `--overlap`,
+//! `--seed`) plus the fixed ones, every value as its exact decimal text. Kd-trees are not
+//! stored: they are rebuilt on loading (see `benches/photon_file.rs` for the cost).
+
+use super::footprint::Guards;
+use super::map::{PathClass, Photon, PhotonMap};
+use super::trace::{PhotonOptions, TraceCounts};
+use super::PhotonMaps;
+use glam::Vec3;
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::Path;
+
+const MAGIC: &[u8; 8] = b"PDPHOTON";
+/// The format version this build writes and reads.
+pub const VERSION: u32 = 1;
+const PHOTON_BYTES: usize = 20 * 4;
+const MAP_HEADER_BYTES: usize = 8 * 8;
+
+/// What a file is for: the scene's content hash and the photon settings.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+struct Header {
+    scene_hash: String,
+    settings: BTreeMap<String, String>,
+    payload_bytes: u64,
+}
+
+/// The photon settings as written in the header, keyed by their command-line spelling.
+pub fn settings(options: &PhotonOptions) -> BTreeMap<String, String> {
+    [
+        ("--photons", options.global_photons.to_string()),
+        ("--caustic-photons", options.caustic_photons.to_string()),
+        ("--overlap", options.overlap.to_string()),
+        ("--seed", options.seed.to_string()),
+        ("max_bounces", options.max_bounces.to_string()),
+        (
+            "radius_limits",
+            format!("{} {}", options.radius_limits.0, options.radius_limits.1),
+        ),
+        ("max_anisotropy", options.max_anisotropy.to_string()),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_string(), v))
+    .collect()
+}
+
+fn checksum(bytes: &[u8]) -> u64 {
+    xxhash_rust::xxh3::xxh3_64(bytes)
+}
+
+fn push_map(out: &mut Vec<u8>, map: &PhotonMap, counts: &TraceCounts) {
+    let g = &map.guards;
+    for v in [
+        counts.emitted,
+        counts.stored,
+        counts.rays,
+        g.clamped_min,
+        g.clamped_max,
+        g.clamped_anisotropy,
+        g.fallback,
+        map.photons.len() as u64,
+    ] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out.reserve(map.photons.len() * PHOTON_BYTES);
+    for p in &map.photons {
+        let mut floats = [0f32; 20];
+        for (k, v) in [p.position, p.normal, p.direction, p.power, p.m[0], p.m[1]]
+            .iter()
+            .enumerate()
+        {
+            floats[3 * k..3 * k + 3].copy_from_slice(&v.to_array());
+        }
+        floats[18] = p.inv_area;
+        floats[19] = p.radius;
+        for f in floats {
+            out.extend_from_slice(&f.to_le_bytes());
+        }
+    }
+}
+
+/// The bytes of a photon-map file for the scene with content hash `scene_hash`.
+pub fn encode(
+    maps: &PhotonMaps,
+    counts: &[TraceCounts; 2],
+    scene_hash: u64,
+    options: &PhotonOptions,
+) -> Vec<u8> {
+    let mut payload = Vec::new();
+    push_map(&mut payload, &maps.caustic, &counts[0]);
+    push_map(&mut payload, &maps.global, &counts[1]);
+    let header = Header {
+        scene_hash: format!("{scene_hash:016x}"),
+        settings: settings(options),
+        payload_bytes: payload.len() as u64,
+    };
+    let header = serde_json::to_vec(&header).expect("a header is always JSON");
+    let mut out = Vec::with_capacity(payload.len() + header.len() + 32);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&(header.len() as u32).to_le_bytes());
+    out.extend_from_slice(&header);
+    out.extend_from_slice(&payload);
+    let sum = checksum(&out);
+    out.extend_from_slice(&sum.to_le_bytes());
+    out
+}
+
+/// Writes the photon-map file atomically.
+pub fn write(
+    path: &Path,
+    maps: &PhotonMaps,
+    counts: &[TraceCounts; 2],
+    scene_hash: u64,
+    options: &PhotonOptions,
+) -> Result<(), String> {
+    let bytes = encode(maps, counts, scene_hash, options);
+    crate::util::atomic::write_with(path, |out| out.write_all(&bytes))
+}
+
+/// Reads a little-endian u64 at `at`.
+fn u64_at(bytes: &[u8], at: usize) -> u64 {
+    u64::from_le_bytes(bytes[at..at + 8].try_into().expect("8 bytes"))
+}
+
+/// Decodes one map from `bytes` starting at `*at`.
+fn take_map(
+    bytes: &[u8],
+    at: &mut usize,
+    class: PathClass,
+) -> Result<(PhotonMap, TraceCounts), String> {
+    if bytes.len() < *at + MAP_HEADER_BYTES {
+        return Err("payload too short for its maps".into());
+    }
+    let v: Vec<u64> = (0..8).map(|k| u64_at(bytes, *at + 8 * k)).collect();
+    *at += MAP_HEADER_BYTES;
+    let n = v[7] as usize;
+    let size = n
+        .checked_mul(PHOTON_BYTES)
+        .filter(|s| *at + s <= bytes.len())
+        .ok_or("payload too short for its photons")?;
+    let photons: Vec<Photon> = bytes[*at..*at + size]
+        .chunks_exact(PHOTON_BYTES)
+        .map(|c| {
+            let f = |k: usize| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().expect("4 bytes"));
+            let v3 = |k: usize| Vec3::new(f(k), f(k + 1), f(k + 2));
+            Photon {
+                position: v3(0),
+                normal: v3(3),
+                direction: v3(6),
+                power: v3(9),
+                m: [v3(12), v3(15)],
+                inv_area: f(18),
+                radius: f(19),
+            }
+        })
+        .collect();
+    *at += size;
+    let guards = Guards {
+        clamped_min: v[3],
+        clamped_max: v[4],
+        clamped_anisotropy: v[5],
+        fallback: v[6],
+    };
+    let counts = TraceCounts {
+        emitted: v[0],
+        stored: v[1],
+        rays: v[2],
+    };
+    Ok((PhotonMap::new(class, photons, v[0], guards), counts))
+}
+
+/// Reads a photon-map file for the scene with content hash `scene_hash` traced with
+/// `options`; every problem (not such a file, another version, truncated, corrupt, another
+/// scene, other settings) is a one-line error naming the file.
+pub fn read(
+    path: &Path,
+    scene_hash: u64,
+    options: &PhotonOptions,
+) -> Result<(PhotonMaps, [TraceCounts; 2]), String> {
+    let name = path.display();
+    let bytes = std::fs::read(path).map_err(|e| format!("{name}: cannot read photon maps: {e}"))?;
+    decode(&bytes, scene_hash, options).map_err(|e| format!("{name}: {e}"))
+}
+
+/// Decodes the bytes of a photon-map file (see [`read`]).
+pub fn decode(
+    bytes: &[u8],
+    scene_hash: u64,
+    options: &PhotonOptions,
+) -> Result<(PhotonMaps, [TraceCounts; 2]), String> {
+    if bytes.len() < 16 || &bytes[..8] != MAGIC {
+        return Err("not a photondiff photon-map file".into());
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
+    if version != VERSION {
+        return Err(format!(
+            "photon-map file format version {version}; this photondiff reads version {VERSION}"
+        ));
+    }
+    let header_len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
+    let truncated = |expected: u64| {
+        format!(
+            "truncated photon-map file: {} bytes, expected {expected}",
+            bytes.len()
+        )
+    };
+    if bytes.len() < 16 + header_len {
+        return Err(truncated(16 + header_len as u64 + 8));
+    }
+    let header: Header = serde_json::from_slice(&bytes[16..16 + header_len])
+        .map_err(|e| format!("corrupt photon-map file header: {e}"))?;
+    let end = (16 + header_len as u64)
+        .checked_add(header.payload_bytes)
+        .filter(|e| *e < u64::MAX - 8)
+        .ok_or("corrupt photon-map file header: impossible payload size")?;
+    if (bytes.len() as u64) < end + 8 {
+        return Err(truncated(end + 8));
+    }
+    if bytes.len() as u64 > end + 8 {
+        return Err(format!(
+            "corrupt photon-map file: {} bytes, expected {}",
+            bytes.len(),
+            end + 8
+        ));
+    }
+    let end = end as usize;
+    if checksum(&bytes[..end]) != u64_at(bytes, end) {
+        return Err("corrupt photon-map file: checksum mismatch".into());
+    }
+    let hash = format!("{scene_hash:016x}");
+    if header.scene_hash != hash {
+        return Err(format!(
+            "photon maps of another scene (scene hash {}; this scene's is {hash})",
+            header.scene_hash
+        ));
+    }
+    let wanted = settings(options);
+    for (key, value) in &wanted {
+        let theirs = header.settings.get(key).map_or("(none)", |v| v.as_str());
+        if theirs != value {
+            return Err(format!(
+                "photon maps traced with other settings: {key} is {theirs} in the file, {value} in this render"
+            ));
+        }
+    }
+    let payload = &bytes[16 + header_len..end];
+    let mut at = 0;
+    let (caustic, c) = take_map(payload, &mut at, PathClass::Caustic)?;
+    let (global, g) = take_map(payload, &mut at, PathClass::Global)?;
+    if at != payload.len() {
+        return Err("corrupt photon-map file: bytes after the maps".into());
+    }
+    Ok((PhotonMaps { caustic, global }, [c, g]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn map(class: PathClass, n: usize) -> PhotonMap {
+        let photons = (0..n)
+            .map(|i| {
+                let f = i as f32;
+                Photon {
+                    position: Vec3::new(f, -f, 0.5 * f),
+                    normal: Vec3::Y,
+                    direction: Vec3::new(0.0, -1.0, f.sin()),
+                    power: Vec3::splat(1e-3 * f),
+                    m: [Vec3::new(1.0, 2.0, f), Vec3::new(-f, 3.0, 4.0)],
+                    inv_area: 1.0 / (1.0 + f),
+                    radius: 0.01 + f,
+                }
+            })
+            .collect();
+        let guards = Guards {
+            clamped_min: 1,
+            clamped_max: 2,
+            clamped_anisotropy: 3,
+            fallback: 4,
+        };
+        PhotonMap::new(class, photons, 10 * n as u64, guards)
+    }
+
+    #[test]
+    fn maps_round_trip_exactly() {
+        let maps = PhotonMaps {
+            caustic: map(PathClass::Caustic, 37),
+            global: map(PathClass::Global, 0),
+        };
+        let counts = [
+            TraceCounts {
+                emitted: 370,
+                stored: 37,
+                rays: 999,
+            },
+            TraceCounts {
+                emitted: 0,
+                stored: 0,
+                rays: 5,
+            },
+        ];
+        let options = PhotonOptions::default();
+        let bytes = encode(&maps, &counts, 0xabc, &options);
+        let (back, back_counts) = decode(&bytes, 0xabc, &options).unwrap();
+        assert_eq!(back.caustic.photons, maps.caustic.photons);
+        assert_eq!(back.caustic.guards, maps.caustic.guards);
+        assert_eq!(back.caustic.emitted, 370);
+        assert_eq!(back.caustic.max_radius, maps.caustic.max_radius);
+        assert!(back.global.is_empty());
+        assert_eq!(back_counts, counts);
+        let other = PhotonOptions { seed: 3, ..options };
+        assert_eq!(
+            decode(&bytes, 0xabc, &other).err().unwrap(),
+            "photon maps traced with other settings: --seed is 0 in the file, 3 in this render"
+        );
+        // Every truncation is an error, never a panic.
+        for len in 0..bytes.len() {
+            assert!(decode(&bytes[..len], 0xabc, &options).is_err());
+        }
+    }
+}

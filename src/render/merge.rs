@@ -1,0 +1,240 @@
+//! Joining the parts of a split render (`--tile I/N`) into the whole image.
+//!
+//! Pixels are copied, not recomputed, so the whole is bit-identical to a render in one process.
+//! Every check runs before anything is produced: parts must come from the same scene (content
+//! hash) and the same settings (every `photondiff/...` attribute but those describing one
+//! process: [`PER_PART`]), must not overlap, and must cover the image; every missing tile is
+//! named.
+
+use super::film::Film;
+use super::part::Part;
+use super::split::{TileSplit, Window};
+use serde_json::Value;
+use std::collections::BTreeSet;
+
+/// Attributes that describe one process rather than the image: they may differ between parts.
+pub const PER_PART: &[&str] = &[
+    "photondiff/scene",
+    "photondiff/tile",
+    "photondiff/threads",
+    "photondiff/render_seconds",
+    "photondiff/stats",
+    "photondiff/parts",
+    // The noise estimate of a progressive render is its part's; the whole has none.
+    "photondiff/passes_stopped_by",
+    "photondiff/noise_whole",
+    "photondiff/noise_caustic",
+    "photondiff/noise_caustic_pixels",
+];
+
+/// The whole image and its attributes.
+#[derive(Debug)]
+pub struct Merged {
+    /// The whole image.
+    pub film: Film,
+    /// Its attributes: the parts' shared settings, `photondiff/parts` (how many) and
+    /// `photondiff/stats`, the statistics of the whole.
+    pub metadata: Vec<(String, String)>,
+    /// The statistics of the whole (see [`merge_stats`]).
+    pub stats: Value,
+}
+
+/// The tile a part holds: its `photondiff/tile` attribute, or the whole image (`0/1`).
+fn tile_of(part: &Part) -> Result<TileSplit, String> {
+    match part.metadata.get("photondiff/tile") {
+        Some(t) => t.parse().map_err(|e| {
+            format!(
+                "{}: bad photondiff/tile attribute: {e}",
+                part.path.display()
+            )
+        }),
+        None => Ok(TileSplit { index: 0, count: 1 }),
+    }
+}
+
+/// Merges `parts` (see the module documentation).
+pub fn merge(parts: &[Part]) -> Result<Merged, String> {
+    let first = parts.first().ok_or("no parts to merge")?;
+    let name = |p: &Part| p.path.display().to_string();
+    if !first.metadata.contains_key("photondiff/scene_hash") {
+        return Err(format!(
+            "{}: not written by photondiff render (no photondiff/scene_hash attribute)",
+            name(first)
+        ));
+    }
+    // Same scene, same settings, same image size.
+    for part in &parts[1..] {
+        if part.display != first.display {
+            return Err(format!(
+                "{} is a {} x {} image but {} is {} x {}",
+                name(part),
+                part.display.0,
+                part.display.1,
+                name(first),
+                first.display.0,
+                first.display.1
+            ));
+        }
+        let keys: BTreeSet<&String> = first.metadata.keys().chain(part.metadata.keys()).collect();
+        for key in keys {
+            if PER_PART.contains(&key.as_str()) || !key.starts_with("photondiff/") {
+                continue;
+            }
+            let (a, b) = (first.metadata.get(key), part.metadata.get(key));
+            if a != b {
+                let show = |v: Option<&String>| v.map_or("(none)".to_string(), |v| v.clone());
+                let what = if key == "photondiff/scene_hash" {
+                    "is from another scene"
+                } else {
+                    "has other settings"
+                };
+                return Err(format!(
+                    "{} {what} than {}: {key} is {} there, {} here",
+                    name(part),
+                    name(first),
+                    show(a),
+                    show(b)
+                ));
+            }
+        }
+    }
+    // No overlap.
+    let tiles: Vec<TileSplit> = parts.iter().map(tile_of).collect::<Result<_, _>>()?;
+    for (i, a) in parts.iter().enumerate() {
+        for (j, b) in parts.iter().enumerate().skip(i + 1) {
+            if a.window.overlaps(&b.window) {
+                return Err(format!(
+                    "{} (tile {}, {}) overlaps {} (tile {}, {})",
+                    name(a),
+                    tiles[i],
+                    a.window,
+                    name(b),
+                    tiles[j],
+                    b.window
+                ));
+            }
+        }
+    }
+    // One split, complete.
+    let count = tiles[0].count;
+    if let Some(k) = tiles.iter().position(|t| t.count != count) {
+        return Err(format!(
+            "{} is tile {} but {} is tile {}: parts of different splits",
+            name(&parts[k]),
+            tiles[k],
+            name(first),
+            tiles[0]
+        ));
+    }
+    let present: BTreeSet<u32> = tiles.iter().map(|t| t.index).collect();
+    let missing: Vec<String> = (0..count)
+        .filter(|i| !present.contains(i))
+        .map(|i| format!("{i}/{count}"))
+        .collect();
+    if !missing.is_empty() {
+        return Err(format!("missing tiles: {}", missing.join(", ")));
+    }
+    let (width, height) = first.display;
+    for (part, tile) in parts.iter().zip(&tiles) {
+        let expected = tile.window(width, height)?;
+        if part.window != expected {
+            return Err(format!(
+                "{}: tile {tile} should cover {expected} but covers {}",
+                name(part),
+                part.window
+            ));
+        }
+    }
+    let mut film = Film::new(width, height);
+    for part in parts {
+        copy_window(&part.film, part.window, &mut film);
+    }
+    let stats = merge_stats(parts)?;
+    let mut metadata: Vec<(String, String)> = first
+        .metadata
+        .iter()
+        .filter(|(k, _)| !PER_PART.contains(&k.as_str()) || k.as_str() == "photondiff/scene")
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
+    metadata.push(("photondiff/parts".into(), parts.len().to_string()));
+    metadata.push(("photondiff/stats".into(), stats.to_string()));
+    Ok(Merged {
+        film,
+        metadata,
+        stats,
+    })
+}
+
+/// Copies `part`, the pixels of `window`, into the whole image `film`.
+fn copy_window(part: &Film, window: Window, film: &mut Film) {
+    for y in window.y0..window.y1 {
+        let src = ((y - window.y0) * window.width()) as usize;
+        let dst = (y * film.width + window.x0) as usize;
+        let n = window.width() as usize;
+        film.pixels[dst..dst + n].copy_from_slice(&part.pixels[src..src + n]);
+    }
+}
+
+/// The statistics of the whole: every count and time summed over the parts (stage times are
+/// then the seconds of all processes together, not wall-clock time); the photon maps' figures,
+/// the same in every part, and the light tracer's noise are taken from the first part.
+pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
+    let mut total: Option<Value> = None;
+    for part in parts {
+        let Some(text) = part.metadata.get("photondiff/stats") else {
+            continue;
+        };
+        let value: Value = serde_json::from_str(text).map_err(|e| {
+            format!(
+                "{}: bad photondiff/stats attribute: {e}",
+                part.path.display()
+            )
+        })?;
+        total = Some(match total {
+            None => value,
+            Some(mut t) => {
+                add(&mut t, &value, "");
+                t
+            }
+        });
+    }
+    Ok(total.unwrap_or(Value::Null))
+}
+
+/// Adds the numbers of `b` into `a`, field by field; stages are added by name.
+fn add(a: &mut Value, b: &Value, key: &str) {
+    if matches!(key, "photon_maps" | "reference_noise") {
+        return;
+    }
+    match (a, b) {
+        (Value::Number(x), Value::Number(y)) => {
+            *x = match (x.as_u64(), y.as_u64()) {
+                (Some(p), Some(q)) => p.saturating_add(q).into(),
+                _ => serde_json::Number::from_f64(
+                    x.as_f64().unwrap_or(0.0) + y.as_f64().unwrap_or(0.0),
+                )
+                .unwrap_or_else(|| 0.into()),
+            }
+        }
+        (Value::Object(x), Value::Object(y)) => {
+            for (k, v) in y {
+                match x.get_mut(k) {
+                    Some(slot) => add(slot, v, k),
+                    None => {
+                        x.insert(k.clone(), v.clone());
+                    }
+                }
+            }
+        }
+        (Value::Array(x), Value::Array(y)) if key == "stages" => {
+            for stage in y {
+                let name = stage.get("name");
+                match x.iter_mut().find(|s| s.get("name") == name) {
+                    Some(slot) => add(slot, stage, ""),
+                    None => x.push(stage.clone()),
+                }
+            }
+        }
+        _ => {}
+    }
+}

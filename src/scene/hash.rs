@@ -1,0 +1,84 @@
+//! The content hash of a scene: 64-bit FNV-1a over the scene file's bytes and those of every
+//! mesh file it names, in order, each preceded by its length. Files written for a scene (photon
+//! maps, parts of a split render) carry it, so that they are never combined with another scene
+//! or another version of the same one; moving or renaming the files does not change it.
+
+use std::path::{Path, PathBuf};
+
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
+
+/// 64-bit FNV-1a, continued from `hash`.
+pub fn fnv1a(mut hash: u64, bytes: &[u8]) -> u64 {
+    for &b in bytes {
+        hash ^= b as u64;
+        hash = hash.wrapping_mul(FNV_PRIME);
+    }
+    hash
+}
+
+/// The mesh files a scene file names (`[[shapes]]` of type "mesh"), resolved against its
+/// folder, in the file's order.
+fn mesh_files(text: &str, base: &Path) -> Vec<PathBuf> {
+    let Ok(value) = text.parse::<toml::Table>() else {
+        return Vec::new();
+    };
+    let Some(shapes) = value.get("shapes").and_then(|s| s.as_array()) else {
+        return Vec::new();
+    };
+    shapes
+        .iter()
+        .filter(|s| s.get("type").and_then(|t| t.as_str()) == Some("mesh"))
+        .filter_map(|s| s.get("file").and_then(|f| f.as_str()))
+        .map(|f| base.join(f))
+        .collect()
+}
+
+/// The content hash of the scene file at `path` and its mesh files.
+pub fn scene_hash(path: &Path) -> Result<u64, String> {
+    let read =
+        |p: &Path| std::fs::read(p).map_err(|e| format!("{}: cannot read: {e}", p.display()));
+    let scene = read(path)?;
+    let base = path.parent().unwrap_or(Path::new(""));
+    let mut hash = fnv1a(FNV_OFFSET, &(scene.len() as u64).to_le_bytes());
+    hash = fnv1a(hash, &scene);
+    for mesh in mesh_files(&String::from_utf8_lossy(&scene), base) {
+        let bytes = read(&mesh)?;
+        hash = fnv1a(hash, &(bytes.len() as u64).to_le_bytes());
+        hash = fnv1a(hash, &bytes);
+    }
+    Ok(hash)
+}
+
+/// A hash as 16 hexadecimal digits, as it appears in files and messages.
+pub fn hex(hash: u64) -> String {
+    format!("{hash:016x}")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv1a_matches_the_published_test_vectors() {
+        assert_eq!(fnv1a(FNV_OFFSET, b""), 0xcbf29ce484222325);
+        assert_eq!(fnv1a(FNV_OFFSET, b"a"), 0xaf63dc4c8601ec8c);
+        assert_eq!(fnv1a(FNV_OFFSET, b"foobar"), 0x85944171f73967e8);
+    }
+
+    #[test]
+    fn the_hash_follows_the_mesh_files_content_not_their_names() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = "[camera]\n[[shapes]]\ntype = \"mesh\"\nfile = \"m.obj\"\n";
+        std::fs::write(dir.path().join("a.toml"), scene).unwrap();
+        std::fs::write(dir.path().join("m.obj"), "v 0 0 0\n").unwrap();
+        let h1 = scene_hash(&dir.path().join("a.toml")).unwrap();
+        std::fs::copy(dir.path().join("a.toml"), dir.path().join("b.toml")).unwrap();
+        assert_eq!(scene_hash(&dir.path().join("b.toml")).unwrap(), h1);
+        std::fs::write(dir.path().join("m.obj"), "v 0 0 1\n").unwrap();
+        assert_ne!(scene_hash(&dir.path().join("a.toml")).unwrap(), h1);
+        std::fs::remove_file(dir.path().join("m.obj")).unwrap();
+        let err = scene_hash(&dir.path().join("a.toml")).unwrap_err();
+        assert!(err.contains("m.obj: cannot read"), "{err}");
+    }
+}

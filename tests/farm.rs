@@ -1,0 +1,302 @@
+//! Split renders: tiles and photon-map files give the image of one process bit for bit, and
+//! every bad input (bad split, foreign or overlapping parts, missing tiles, bad photon-map
+//! files) is a one-line error with exit status 1 that leaves no output behind.
+
+use photondiff::render::part::read_part;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const EXE: &str = env!("CARGO_BIN_EXE_photondiff");
+/// Small photon counts keep each process fast; the split does not depend on them.
+const PHOTONS: [&str; 4] = ["--photons", "20000", "--caustic-photons", "5000"];
+
+/// The canonical scene at 128 x 112 (7 rows of render tiles), `extra` appended.
+fn scene(dir: &Path, name: &str, extra: &str) -> PathBuf {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ))
+    .unwrap()
+    .replace("width = 640", "width = 128")
+    .replace("height = 480", "height = 112");
+    let path = dir.join(name);
+    std::fs::write(&path, text + extra).unwrap();
+    path
+}
+
+fn run(args: &[&str]) -> Output {
+    Command::new(EXE).args(args).output().unwrap()
+}
+
+fn ok(args: &[&str]) {
+    let out = run(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// The one-line error of a command that must fail with status 1.
+fn error(args: &[&str]) -> String {
+    let out = run(args);
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{args:?}: {stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("photondiff: error: "), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    stderr.trim_end().to_string()
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// The pixels of an EXR as bits.
+fn bits(path: &Path) -> Vec<[u64; 3]> {
+    read_part(path)
+        .unwrap()
+        .film
+        .pixels
+        .iter()
+        .map(|p| p.to_array().map(f64::to_bits))
+        .collect()
+}
+
+/// Renders tile `i` of `n` of `scene` into `dir`, returning the part's path.
+fn tile(scene: &Path, dir: &Path, i: u32, n: u32, extra: &[&str]) -> PathBuf {
+    let out = dir.join(format!("tile-{i}-of-{n}.exr"));
+    let t = format!("{i}/{n}");
+    let mut args = vec!["render", s(scene), "-o", s(&out), "--tile", &t, "--quiet"];
+    args.extend(PHOTONS);
+    args.extend(extra);
+    ok(&args);
+    out
+}
+
+#[test]
+fn tiles_and_photon_map_files_give_the_single_process_image_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = scene(d, "scene.toml", "");
+    let whole = d.join("whole.exr");
+    let mut args = vec!["render", s(&scene), "-o", s(&whole), "--quiet"];
+    args.extend(PHOTONS);
+    ok(&args);
+    let reference = bits(&whole);
+    assert!(
+        reference.iter().any(|p| p[0] != 0),
+        "a black image proves nothing"
+    );
+
+    let maps = d.join("maps.pdm");
+    let mut args = vec!["photons", s(&scene), "-o", s(&maps), "--quiet"];
+    args.extend(PHOTONS);
+    ok(&args);
+    let with_maps: [&str; 2] = ["--photon-maps", s(&maps)];
+
+    for (n, extra) in [(1, &with_maps[..]), (4, &with_maps[..]), (7, &[][..])] {
+        let parts_dir = d.join(format!("split-{n}"));
+        std::fs::create_dir(&parts_dir).unwrap();
+        // Merged in reverse order: the order of the parts must not matter.
+        let parts: Vec<PathBuf> = (0..n)
+            .rev()
+            .map(|i| tile(&scene, &parts_dir, i, n, extra))
+            .collect();
+        let part = read_part(&parts[0]).unwrap();
+        assert_eq!(part.display, (128, 112));
+        assert_eq!(part.window.y1, 112, "the last tile ends at the bottom");
+        assert_eq!(part.metadata["photondiff/tile"], format!("{}/{n}", n - 1));
+        let merged = parts_dir.join("merged.exr");
+        let mut args = vec!["merge", "-o", s(&merged)];
+        args.extend(parts.iter().map(|p| s(p)));
+        ok(&args);
+        assert!(
+            bits(&merged) == reference,
+            "{n} tiles differ from one process"
+        );
+        assert!(parts_dir.join("merged.png").exists());
+    }
+}
+
+#[test]
+fn progressive_tiles_give_the_single_process_image_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = scene(d, "scene.toml", "");
+    let whole = d.join("whole.exr");
+    let mut args = vec![
+        "render",
+        s(&scene),
+        "-o",
+        s(&whole),
+        "--quiet",
+        "--passes",
+        "3",
+    ];
+    args.extend(PHOTONS);
+    ok(&args);
+    // The file's maps stand for pass 0's; passes 1 and 2 trace their own.
+    let maps = d.join("maps.pdm");
+    let mut args = vec!["photons", s(&scene), "-o", s(&maps), "--quiet"];
+    args.extend(PHOTONS);
+    ok(&args);
+    let extra = ["--passes", "3", "--photon-maps", s(&maps)];
+    let parts: Vec<PathBuf> = (0..3).map(|i| tile(&scene, d, i, 3, &extra)).collect();
+    assert_eq!(
+        read_part(&parts[0]).unwrap().metadata["photondiff/passes"],
+        "3"
+    );
+    let merged = d.join("merged.exr");
+    let mut args = vec!["merge", "-o", s(&merged)];
+    args.extend(parts.iter().map(|p| s(p)));
+    ok(&args);
+    assert!(
+        bits(&merged) == bits(&whole),
+        "progressive tiles differ from one process"
+    );
+}
+
+#[test]
+fn bad_splits_are_one_line_errors_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene(dir.path(), "scene.toml", "");
+    let out = dir.path().join("t.exr");
+    for (split, message) in [
+        ("0/0", "the number of tiles N must be at least 1"),
+        ("5/4", "tile I must be below N = 4 (tiles count from 0)"),
+        (
+            "0/8",
+            "the 112-pixel-high image has only 7 rows of 16-pixel tiles; use at most 7 tiles",
+        ),
+        ("x", "expected I/N with 0 <= I < N (I counts from 0)"),
+    ] {
+        let e = error(&["render", s(&scene), "-o", s(&out), "--tile", split]);
+        assert!(e.contains(message), "{e}");
+    }
+    assert_eq!(
+        std::fs::read_dir(dir.path()).unwrap().count(),
+        1,
+        "only the scene"
+    );
+}
+
+#[test]
+fn merge_refuses_foreign_overlapping_and_incomplete_parts() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene_a = scene(d, "a.toml", "");
+    let scene_b = scene(d, "b.toml", "# another scene\n");
+    let a: Vec<PathBuf> = (0..4).map(|i| tile(&scene_a, d, i, 4, &[])).collect();
+    let b0 = tile(&scene_b, &d.join("b"), 0, 4, &[]);
+    let seed = tile(&scene_a, &d.join("seed"), 1, 4, &["--seed", "7"]);
+    let seven = tile(&scene_a, &d.join("seven"), 0, 7, &[]);
+    let out = d.join("merged.exr");
+    let merge = |parts: &[&PathBuf]| {
+        let mut args = vec!["merge", "-o", s(&out)];
+        args.extend(parts.iter().map(|p| s(p)));
+        let e = error(&args);
+        assert!(
+            !out.exists() && !d.join("merged.png").exists(),
+            "partial output"
+        );
+        e
+    };
+    let e = merge(&[&a[0], &a[1], &a[2], &b0]);
+    assert!(
+        e.contains(&format!(
+            "{} is from another scene than {}",
+            s(&b0),
+            s(&a[0])
+        )),
+        "{e}"
+    );
+    let e = merge(&[&a[0], &seed, &a[2], &a[3]]);
+    assert!(
+        e.contains("has other settings") && e.contains("photondiff/seed is 0 there, 7 here"),
+        "{e}"
+    );
+    let e = merge(&[&a[0], &a[1], &a[1], &a[2], &a[3]]);
+    assert!(
+        e.contains(&format!(
+            "{} (tile 1/4, x 0..128, y 16..48) overlaps {}",
+            s(&a[1]),
+            s(&a[1])
+        )),
+        "{e}"
+    );
+    let e = merge(&[&a[0], &seven, &a[1]]);
+    assert!(e.contains("overlaps"), "{e}");
+    let e = merge(&[&a[2]]);
+    assert_eq!(e, "photondiff: error: missing tiles: 0/4, 1/4, 3/4");
+}
+
+#[test]
+fn bad_photon_map_files_are_one_line_errors_without_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene_a = scene(d, "a.toml", "");
+    let scene_b = scene(d, "b.toml", "# another scene\n");
+    let maps = d.join("a.pdm");
+    let mut args = vec!["photons", s(&scene_a), "-o", s(&maps), "--quiet"];
+    args.extend(PHOTONS);
+    ok(&args);
+    let bytes = std::fs::read(&maps).unwrap();
+    let out = d.join("out").join("x.exr");
+    let render = |scene: &Path, maps: &Path, extra: &[&str]| {
+        let mut args = vec!["render", s(scene), "-o", s(&out), "--photon-maps", s(maps)];
+        args.extend(PHOTONS);
+        args.extend(extra);
+        let e = error(&args);
+        assert!(!out.exists(), "partial output");
+        e
+    };
+    let name = s(&maps);
+    let e = render(&scene_b, &maps, &[]);
+    assert!(
+        e.starts_with(&format!(
+            "photondiff: error: {name}: photon maps of another scene (scene hash "
+        )),
+        "{e}"
+    );
+    let e = render(&scene_a, &maps, &["--overlap", "16"]);
+    assert!(e.ends_with("photon maps traced with other settings: --overlap is 32 in the file, 16 in this render"), "{e}");
+    let cut = d.join("cut.pdm");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let e = render(&scene_a, &cut, &[]);
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {}: truncated photon-map file: {} bytes, expected {}",
+            s(&cut),
+            bytes.len() / 2,
+            bytes.len()
+        )
+    );
+    let flipped = d.join("flipped.pdm");
+    let mut f = bytes.clone();
+    let k = f.len() - 100;
+    f[k] ^= 1;
+    std::fs::write(&flipped, &f).unwrap();
+    let e = render(&scene_a, &flipped, &[]);
+    assert!(
+        e.ends_with("flipped.pdm: corrupt photon-map file: checksum mismatch"),
+        "{e}"
+    );
+    let version = d.join("v2.pdm");
+    let mut v = bytes.clone();
+    v[8] = 2;
+    std::fs::write(&version, &v).unwrap();
+    let e = render(&scene_a, &version, &[]);
+    assert!(
+        e.ends_with("v2.pdm: photon-map file format version 2; this photondiff reads version 1"),
+        "{e}"
+    );
+    let e = render(&scene_a, &scene_a, &[]);
+    assert!(
+        e.ends_with("a.toml: not a photondiff photon-map file"),
+        "{e}"
+    );
+    let e = render(&scene_a, &d.join("none.pdm"), &[]);
+    assert!(e.contains("none.pdm: cannot read photon maps: "), "{e}");
+}
