@@ -12,7 +12,8 @@
 //! noise per region is printed beside: an error below three times it is marked `~`.
 //! Environment: `PHOTONDIFF_BUDGETS` (seconds, comma-separated; default 0.5,1,2,4,8,16,32),
 //! `PHOTONDIFF_REFERENCE_PATHS` (paths per set of the canonical reference, default 2*10^8),
-//! `PHOTONDIFF_STRESS_REFERENCE_PATHS` (default 5*10^7), `PHOTONDIFF_SCENES` (`canonical`,
+//! `PHOTONDIFF_STRESS_REFERENCE_PATHS` (default 5*10^7), `PHOTONDIFF_DIRECT_GRIDS` (the
+//! reference's two direct-light grids, default 16,17), `PHOTONDIFF_SCENES` (`canonical`,
 //! `stress` or `all`, default all), `PHOTONDIFF_THREADS` (default all cores).
 //!
 //! Asserted in the output (exit status 1 otherwise): the progressive `integrated` error falls
@@ -129,7 +130,8 @@ fn light_tracer(
         .iter()
         .map(|&b| {
             let options = LightTraceOptions {
-                paths: u64::MAX / 4,
+                // More than any budget allows: the budget stops it.
+                paths: 20_000_000_000,
                 time_budget: Some(Duration::from_secs_f64(b)),
                 seed: 11,
                 ..LightTraceOptions::default()
@@ -158,6 +160,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let which = std::env::var("PHOTONDIFF_SCENES").unwrap_or_else(|_| "all".into());
     let paths = env_u64("PHOTONDIFF_REFERENCE_PATHS", 200_000_000);
     let stress_paths = env_u64("PHOTONDIFF_STRESS_REFERENCE_PATHS", 50_000_000);
+    let grids: Vec<u32> = std::env::var("PHOTONDIFF_DIRECT_GRIDS")
+        .unwrap_or_else(|_| "16,17".into())
+        .split(',')
+        .map(|s| s.trim().parse::<u32>())
+        .collect::<Result<_, _>>()?;
+    let grids: [u32; 2] = grids
+        .try_into()
+        .map_err(|_| "PHOTONDIFF_DIRECT_GRIDS takes two numbers")?;
     let scenes_dir = root.join("scenes");
     let mut cases: Vec<(&str, Scene, u64)> = Vec::new();
     if which == "all" || which == "canonical" {
@@ -192,7 +202,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let settings = ReferenceSettings {
             light_paths: *paths,
             caustic_paths: *paths,
-            ..ReferenceSettings::default()
+            direct_grids: grids,
         };
         let reference = pool.install(|| {
             load_or_make(
@@ -253,7 +263,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             scene.camera.width, scene.camera.height
         );
         println!(
-            "Reference: direct light on 16x16 and 17x17 rays per pixel plus {paths} + {paths} caustic light paths; its noise (from its halves): {}.\n",
+            "Reference: direct light on {}x{0} and {}x{1} rays per pixel plus {paths} + {paths} caustic light paths; its noise (from its halves): {}.\n",
+            grids[0],
+            grids[1],
             REGIONS
                 .iter()
                 .zip(noise)

@@ -159,6 +159,13 @@ pub struct IntegratedEstimate<'a> {
 }
 
 impl RadianceEstimator for IntegratedEstimate<'_> {
+    fn integrates_view_footprint(&self) -> bool {
+        // The whole footprint, exactly: a jittered pass must gather over its cell's footprint,
+        // not one shifted by the jitter (which would shift the image by up to half a pixel per
+        // pass and blur the mean into a tent filter).
+        true
+    }
+
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
         counts.gathers += 1;
         let f = [q.footprint[0].as_vec3(), q.footprint[1].as_vec3()];
