@@ -223,6 +223,11 @@ pub fn classify(s: DVec2, a: DVec2, b: DVec2) -> Overlap {
     if !(size2.is_finite() && ss.is_finite()) {
         return Overlap::None;
     }
+    // Far apart, without a square root: the circumradius R has R^2 <= (|a|^2 + |b|^2) / 2 and
+    // (1 + R)^2 <= 2 + 2 R^2, so this is beyond 1 + R. Most photons a gather finds end here.
+    if ss > 2.0 + size2 {
+        return Overlap::None;
+    }
     if size2 < POINT_SIZE * POINT_SIZE {
         return Overlap::Mean((1.0 - ss).max(0.0));
     }
