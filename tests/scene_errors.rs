@@ -258,6 +258,8 @@ fn the_command_line_fails_cleanly_and_renders_good_scenes() {
     );
     assert!(exr.exists() && exr.with_extension("png").exists());
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
-    assert_eq!(json["rays"]["camera"], 32 * 24 * 4);
+    // The default estimate (integrated) renders two progressive passes.
+    assert_eq!(json["progressive"]["passes"], 2);
+    assert_eq!(json["rays"]["camera"], 2 * 32 * 24 * 4);
     assert_eq!(json["threads"], 1);
 }

@@ -51,8 +51,9 @@ pub struct RenderArgs {
     /// (photon differentials averaged over N x N points of the view footprint) or `integrated`
     /// (photon differentials averaged over the whole view footprint, exactly); or
     /// `lighttrace`, the unbiased light-tracing reference (no photon maps; see --light-paths).
-    #[arg(long, value_enum, default_value_t = EstimatorKind::Pd)]
-    estimator: EstimatorKind,
+    /// Default: `integrated` with progressive passes (see --passes).
+    #[arg(long, value_enum)]
+    estimator: Option<EstimatorKind>,
     /// Global photons: emissions traced for the global map (indirect light).
     #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
     global_photons: usize,
@@ -75,8 +76,9 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", default_value_t = 20_000_000)]
     light_paths: u64,
     /// Progressive passes: the image is the mean of N independent passes (fresh photons with
-    /// shrinking footprints, jittered camera rays). Default 1, or no limit with --time-budget
-    /// or --target-noise.
+    /// shrinking footprints, jittered camera rays). Default 2 for `integrated` (the default
+    /// estimator) and 1 for the others (the thesis's methods as they were), or no limit with
+    /// --time-budget or --target-noise.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     passes: Option<String>,
     /// Photon estimates and `direct`: stop after the last whole pass that fits in SECONDS (at
@@ -107,6 +109,7 @@ pub struct RenderArgs {
 
 /// Runs `photondiff render`.
 pub fn run(args: &RenderArgs) -> Result<(), String> {
+    let kind = estimator_kind(args);
     let stop = stop_rules(args)?;
     let mut stats = Stats::default();
     let scene = stats
@@ -121,7 +124,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     };
     let window = match &tile {
         Some(tile) => {
-            if args.estimator == EstimatorKind::Lighttrace {
+            if kind == EstimatorKind::Lighttrace {
                 return Err(
                     "--tile cannot split --estimator lighttrace (its paths reach any pixel)".into(),
                 );
@@ -156,13 +159,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ));
     }
     let settings = EstimatorSettings {
-        kind: args.estimator,
+        kind,
         k: args.k as usize,
         max_radius: photon_options.limits(&scene).max_radius,
         ms_grid: args.ms_grid,
         ellipse_vertices: args.coplanar_vertices as usize,
     };
-    let film = if args.estimator == EstimatorKind::Lighttrace {
+    let film = if kind == EstimatorKind::Lighttrace {
         let lt_options = LightTraceOptions {
             paths: args.light_paths,
             time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
@@ -195,7 +198,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             alpha: args.alpha,
         };
         // Photon maps from a file stand for pass 0's, whose settings they must match.
-        let maps = match (&args.photon_maps, args.estimator) {
+        let maps = match (&args.photon_maps, kind) {
             (Some(path), kind) if kind != EstimatorKind::Direct => {
                 let (pass0, _, _) = progressive.pass_settings(0);
                 Some(load_photon_maps(path, hash, &pass0, &mut stats)?)
@@ -231,7 +234,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ),
         (
             "photondiff/estimator".to_string(),
-            format!("{:?}", args.estimator).to_lowercase(),
+            format!("{kind:?}").to_lowercase(),
         ),
         (
             "photondiff/photons".to_string(),
@@ -292,6 +295,15 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// Passes of the default estimator, `integrated`: chosen so that `make render` stays
+/// interactive (README, "Progressive passes").
+const DEFAULT_PASSES: u64 = 2;
+
+/// The estimator asked for, `integrated` by default.
+fn estimator_kind(args: &RenderArgs) -> EstimatorKind {
+    args.estimator.unwrap_or(EstimatorKind::Integrated)
+}
+
 /// Checks the pass options and turns them into stop rules (for photon estimates and `direct`).
 fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
     let passes = match &args.passes {
@@ -322,9 +334,8 @@ fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
         return Err(format!("--alpha must be in (0, 1), got {}", args.alpha));
     }
-    if args.estimator == EstimatorKind::Lighttrace
-        && (args.passes.is_some() || args.target_noise.is_some())
-    {
+    let kind = estimator_kind(args);
+    if kind == EstimatorKind::Lighttrace && (args.passes.is_some() || args.target_noise.is_some()) {
         return Err(
             "--passes and --target-noise do not apply to --estimator lighttrace (it takes \
              --light-paths and --time-budget)"
@@ -332,8 +343,12 @@ fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
         );
     }
     let open = args.time_budget.is_some() || args.target_noise.is_some();
+    let default = match kind {
+        EstimatorKind::Integrated => DEFAULT_PASSES,
+        _ => 1,
+    };
     Ok(StopRules {
-        passes: passes.or(if open { None } else { Some(1) }),
+        passes: passes.or(if open { None } else { Some(default) }),
         time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
         target_noise: args.target_noise,
     })
