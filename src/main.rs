@@ -27,6 +27,9 @@ enum Command {
     Merge(cli::merge::MergeArgs),
     /// Trace a scene's photon maps once and write them for `render --photon-maps`.
     Photons(cli::photons::PhotonsArgs),
+    /// Compare an image with a reference: relRMSE, RMSE, PSNR, mean ratio and SSIM, over the
+    /// whole image or masks; optionally an error map and a threshold for scripts.
+    Compare(cli::compare::CompareArgs),
 }
 
 fn main() -> ExitCode {
@@ -36,6 +39,7 @@ fn main() -> ExitCode {
         Command::Reference(args) => cli::reference::run(&args),
         Command::Merge(args) => cli::merge::run(&args),
         Command::Photons(args) => cli::photons::run(&args),
+        Command::Compare(args) => cli::compare::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

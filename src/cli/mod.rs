@@ -1,5 +1,6 @@
 //! The subcommands of the command line, one file each, and what they share.
 
+pub mod compare;
 pub mod merge;
 pub mod photons;
 pub mod reference;

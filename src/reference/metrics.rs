@@ -150,19 +150,34 @@ pub fn ssim(image: &Film, reference: &Film) -> f64 {
     let luma = |f: &Film| -> Vec<f64> {
         f.pixels
             .iter()
-            .map(|p| {
-                0.2126 * linear_to_srgb(p.x)
-                    + 0.7152 * linear_to_srgb(p.y)
-                    + 0.0722 * linear_to_srgb(p.z)
-            })
+            .map(|p| srgb_luminance(p.x, p.y, p.z))
             .collect()
     };
-    let (a, b) = (luma(image), luma(reference));
     let (w, h) = (image.width as usize, image.height as usize);
+    mean_ssim(&luma(image), &luma(reference), w, h, |_, _| true).unwrap_or(1.0)
+}
+
+/// Rec. 709 luminance of the sRGB-encoded (clamped) channels: what SSIM compares.
+pub fn srgb_luminance(r: f64, g: f64, b: f64) -> f64 {
+    0.2126 * linear_to_srgb(r) + 0.7152 * linear_to_srgb(g) + 0.0722 * linear_to_srgb(b)
+}
+
+/// Mean SSIM over the 8 x 8 windows (stride 4, from the top-left) of two `w` x `h` luminance
+/// planes whose top-left corner `(x0, y0)` passes `include`; `None` when no window does.
+pub fn mean_ssim(
+    a: &[f64],
+    b: &[f64],
+    w: usize,
+    h: usize,
+    include: impl Fn(usize, usize) -> bool,
+) -> Option<f64> {
     let (c1, c2) = ((0.01f64).powi(2), (0.03f64).powi(2));
     let (mut sum, mut count) = (0.0, 0.0);
     for y0 in (0..h.saturating_sub(7)).step_by(4) {
         for x0 in (0..w.saturating_sub(7)).step_by(4) {
+            if !include(x0, y0) {
+                continue;
+            }
             let (mut ma, mut mb, mut va, mut vb, mut cov) = (0.0, 0.0, 0.0, 0.0, 0.0);
             for y in y0..y0 + 8 {
                 for x in x0..x0 + 8 {
@@ -186,11 +201,7 @@ pub fn ssim(image: &Film, reference: &Film) -> f64 {
             count += 1.0;
         }
     }
-    if count == 0.0 {
-        1.0
-    } else {
-        sum / count
-    }
+    (count > 0.0).then(|| sum / count)
 }
 
 #[cfg(test)]

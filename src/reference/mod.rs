@@ -1,9 +1,13 @@
 //! Measurement rather than rendering: the unbiased light tracer ([`light_tracer`]) and its cached
-//! references ([`cache`]), accuracy metrics and image regions ([`metrics`]), the bounds every
+//! references ([`cache`]), accuracy metrics and image regions ([`metrics`]), image comparison as
+//! `photondiff compare` does it ([`channels`], [`compare`], [`error_map`]), the bounds every
 //! method must respect ([`stability`]), and methods as the experiments name them
 //! ([`experiment`]).
 
 pub mod cache;
+pub mod channels;
+pub mod compare;
+pub mod error_map;
 pub mod experiment;
 pub mod light_tracer;
 pub mod metrics;

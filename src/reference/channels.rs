@@ -1,0 +1,138 @@
+//! EXR images with any channels, as `compare` reads them: the first layer, every channel, in
+//! the file's (alphabetical) channel order, as double-precision planes.
+
+use crate::render::film::Film;
+use std::path::Path;
+
+/// An image of named channels, each a row-major plane; pixel `(0, 0)` is the top-left.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ChannelImage {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Channel names, as stored (EXR sorts them alphabetically).
+    pub names: Vec<String>,
+    /// One plane of `width * height` values per channel, in the order of `names`.
+    pub planes: Vec<Vec<f64>>,
+}
+
+impl ChannelImage {
+    /// The R, G and B channels of a film (alphabetical order, as an EXR stores them).
+    pub fn from_film(film: &Film) -> Self {
+        let plane = |c: usize| film.pixels.iter().map(|p| p[c]).collect();
+        ChannelImage {
+            width: film.width as usize,
+            height: film.height as usize,
+            names: vec!["B".into(), "G".into(), "R".into()],
+            planes: vec![plane(2), plane(1), plane(0)],
+        }
+    }
+
+    /// Reads the first layer of an EXR file with all its channels. Errors are one line naming
+    /// the file.
+    pub fn read(path: &Path) -> Result<Self, String> {
+        let name = path.display();
+        std::fs::metadata(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
+        let image = exr::prelude::read_first_flat_layer_from_file(path)
+            .map_err(|e| format!("{name}: cannot read EXR: {}", one_line(&e.to_string())))?;
+        let layer = image.layer_data;
+        let (width, height) = (layer.size.width(), layer.size.height());
+        let mut names = Vec::new();
+        let mut planes = Vec::new();
+        for channel in &layer.channel_data.list {
+            let channel_name = channel.name.to_string();
+            let plane: Vec<f64> = channel
+                .sample_data
+                .values_as_f32()
+                .map(|v| v as f64)
+                .collect();
+            if plane.len() != width * height {
+                return Err(format!(
+                    "{name}: channel {channel_name} is subsampled (not supported)"
+                ));
+            }
+            names.push(channel_name);
+            planes.push(plane);
+        }
+        Ok(ChannelImage {
+            width,
+            height,
+            names,
+            planes,
+        })
+    }
+
+    /// Writes the image as a 32-bit float EXR (tests and masks).
+    pub fn write_exr(&self, path: &Path) -> Result<(), String> {
+        use exr::prelude::*;
+        let channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = self
+            .names
+            .iter()
+            .zip(&self.planes)
+            .map(|(n, p)| {
+                AnyChannel::new(
+                    n.as_str(),
+                    FlatSamples::F32(p.iter().map(|&v| v as f32).collect()),
+                )
+            })
+            .collect();
+        let layer = Layer::new(
+            (self.width, self.height),
+            LayerAttributes::default(),
+            Encoding::FAST_LOSSLESS,
+            AnyChannels::sort(channels),
+        );
+        Image::from_layer(layer)
+            .write()
+            .to_file(path)
+            .map_err(|e| format!("{}: cannot write EXR: {e}", path.display()))
+    }
+
+    /// The first non-finite value, as an error naming the file, pixel and channel.
+    pub fn check_finite(&self, name: &Path) -> Result<(), String> {
+        for (c, plane) in self.planes.iter().enumerate() {
+            if let Some(i) = plane.iter().position(|v| !v.is_finite()) {
+                return Err(format!(
+                    "{}: channel {} of pixel ({}, {}) is not finite ({})",
+                    name.display(),
+                    self.names[c],
+                    i % self.width,
+                    i / self.width,
+                    plane[i]
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The channels `compare` measures: all but alpha (`A`), which is coverage, not radiance.
+    pub fn measured_channels(&self) -> Vec<usize> {
+        let colour: Vec<usize> = (0..self.names.len())
+            .filter(|&c| self.names[c] != "A" && !self.names[c].ends_with(".A"))
+            .collect();
+        if colour.is_empty() {
+            (0..self.names.len()).collect()
+        } else {
+            colour
+        }
+    }
+
+    /// The plane of channel `name`, if present.
+    pub fn plane(&self, name: &str) -> Option<&[f64]> {
+        let c = self.names.iter().position(|n| n == name)?;
+        Some(&self.planes[c])
+    }
+
+    /// Pixels where any channel is above zero: a mask.
+    pub fn mask(&self) -> Vec<bool> {
+        (0..self.width * self.height)
+            .map(|i| self.planes.iter().any(|p| p[i] > 0.0))
+            .collect()
+    }
+}
+
+/// Library errors can span lines; the command line prints one.
+fn one_line(s: &str) -> String {
+    s.split_whitespace().collect::<Vec<_>>().join(" ")
+}

@@ -1,0 +1,362 @@
+//! `photondiff compare` on tiny EXRs written here: figures against values computed by hand,
+//! masks, the error map's colours, every mismatch's exact message, `--max-relrmse`'s status.
+
+use photondiff::reference::channels::ChannelImage;
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_photondiff")
+}
+
+/// Writes a one-plane-per-channel EXR.
+fn write(dir: &Path, name: &str, w: usize, h: usize, channels: &[(&str, Vec<f64>)]) -> PathBuf {
+    let path = dir.join(name);
+    ChannelImage {
+        width: w,
+        height: h,
+        names: channels.iter().map(|c| c.0.to_string()).collect(),
+        planes: channels.iter().map(|c| c.1.clone()).collect(),
+    }
+    .write_exr(&path)
+    .unwrap();
+    path
+}
+
+fn run(args: &[&Path]) -> Output {
+    let mut c = std::process::Command::new(bin());
+    c.arg("compare");
+    for a in args {
+        c.arg(a);
+    }
+    c.output().unwrap()
+}
+
+fn json(out: &Output) -> serde_json::Value {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+fn stderr(out: &Output) -> String {
+    assert_eq!(out.status.code(), Some(1), "expected exit status 1");
+    String::from_utf8(out.stderr.clone()).unwrap()
+}
+
+fn close(v: &serde_json::Value, expected: f64) {
+    let x = v.as_f64().unwrap_or_else(|| panic!("{v} is not a number"));
+    assert!((x - expected).abs() < 1e-9, "{x} != {expected}");
+}
+
+/// R = [1 2; 3 2], I = [1 3; 2 2] (one channel Y). I - R = [0 1; -1 0].
+fn pair(dir: &Path) -> (PathBuf, PathBuf) {
+    let i = write(dir, "i.exr", 2, 2, &[("Y", vec![1.0, 3.0, 2.0, 2.0])]);
+    let r = write(dir, "r.exr", 2, 2, &[("Y", vec![1.0, 2.0, 3.0, 2.0])]);
+    (i, r)
+}
+
+#[test]
+fn figures_match_hand_computed_values() {
+    let d = tempfile::tempdir().unwrap();
+    let (i, r) = pair(d.path());
+    let v = json(&run(&[&i, &r, Path::new("--json")]));
+    let region = &v["regions"][0];
+    assert_eq!(region["name"], "image");
+    assert_eq!(region["pixels"], 4);
+    // MSE = (0 + 1 + 1 + 0) / 4 = 0.5, mean(R) = 2, peak = 3.
+    close(&region["rmse"], 0.5f64.sqrt());
+    close(&region["rel_rmse"], 0.5f64.sqrt() / 2.0);
+    close(&region["psnr_db"], 10.0 * 18f64.log10());
+    close(&region["peak"], 3.0);
+    close(&region["mean_ratio"], 1.0);
+    // A 2 x 2 image holds no 8 x 8 window.
+    assert!(region["ssim"].is_null());
+    assert_eq!(v["channels"], serde_json::json!(["Y"]));
+
+    // The text table carries the same figures.
+    let out = run(&[&i, &r]);
+    assert!(out.status.success());
+    let text = String::from_utf8(out.stdout).unwrap();
+    let row = text.lines().find(|l| l.starts_with("image ")).unwrap();
+    let cells: Vec<&str> = row.split_whitespace().collect();
+    assert_eq!(cells[1..4], ["4", "0.35355", "7.07107e-1"]);
+    assert_eq!(cells[4..7], ["12.55", "1.00000", "-"]);
+}
+
+#[test]
+fn masks_are_measured_each_by_name() {
+    let d = tempfile::tempdir().unwrap();
+    let (i, r) = pair(d.path());
+    // Any channel above zero counts; negative values and zeros do not.
+    let a = write(
+        d.path(),
+        "diag.exr",
+        2,
+        2,
+        &[
+            ("G", vec![0.0, 0.0, 1.0, 0.0]),
+            ("R", vec![-1.0, 0.5, 0.0, 0.0]),
+        ],
+    );
+    let b = write(
+        d.path(),
+        "top.exr",
+        2,
+        2,
+        &[("Y", vec![1.0, 2.0, 0.0, 0.0])],
+    );
+    let v = json(&run(&[
+        &i,
+        &r,
+        Path::new("--mask"),
+        &a,
+        Path::new("--mask"),
+        &b,
+        Path::new("--json"),
+    ]));
+    let regions = v["regions"].as_array().unwrap();
+    assert_eq!(regions.len(), 2);
+    // diag: pixels 1 and 2: I - R = 1, -1; mean(R) = 2.5; peak 3; mean ratio 5 / 5.
+    assert_eq!(regions[0]["name"], "diag");
+    assert_eq!(regions[0]["pixels"], 2);
+    close(&regions[0]["rel_rmse"], 0.4);
+    close(&regions[0]["rmse"], 1.0);
+    close(&regions[0]["psnr_db"], 10.0 * 9f64.log10());
+    close(&regions[0]["mean_ratio"], 1.0);
+    // top: pixels 0 and 1: I - R = 0, 1; mean(R) = 1.5; peak 2; mean ratio 4 / 3.
+    assert_eq!(regions[1]["name"], "top");
+    close(&regions[1]["rel_rmse"], 0.5f64.sqrt() / 1.5);
+    close(&regions[1]["psnr_db"], 10.0 * 8f64.log10());
+    close(&regions[1]["mean_ratio"], 4.0 / 3.0);
+
+    // --max-relrmse: 0.4 is not exceeded by diag (exactly 0.4) but is by top (0.4714).
+    let out = run(&[
+        &i,
+        &r,
+        Path::new("--mask"),
+        &a,
+        Path::new("--mask"),
+        &b,
+        Path::new("--max-relrmse"),
+        Path::new("0.4"),
+    ]);
+    assert_eq!(
+        stderr(&out),
+        "photondiff: error: relRMSE exceeds --max-relrmse 0.4 over top (0.47140)\n"
+    );
+    let out = run(&[
+        &i,
+        &r,
+        Path::new("--mask"),
+        &a,
+        Path::new("--max-relrmse"),
+        Path::new("0.4"),
+    ]);
+    assert!(out.status.success());
+    let out = run(&[&i, &r, Path::new("--max-relrmse"), Path::new("0.3")]);
+    assert_eq!(
+        stderr(&out),
+        "photondiff: error: relRMSE exceeds --max-relrmse 0.3 over image (0.35355)\n"
+    );
+    assert!(
+        run(&[&i, &r, Path::new("--max-relrmse"), Path::new("0.36")])
+            .status
+            .success()
+    );
+}
+
+#[test]
+fn ssim_psnr_and_alpha_on_rgb_images() {
+    let d = tempfile::tempdir().unwrap();
+    let n = 64;
+    // 8 x 8: one SSIM window. Reference white (sRGB luminance 1), image black (0):
+    // SSIM = (2 * 0 * 1 + c1)(0 + c2) / ((0 + 1 + c1)(0 + 0 + c2)) = c1 / (1 + c1), c1 = 1e-4.
+    // Alpha differs wildly and is not measured.
+    let r = write(
+        d.path(),
+        "r.exr",
+        8,
+        8,
+        &[
+            ("A", vec![1.0; n]),
+            ("B", vec![1.0; n]),
+            ("G", vec![1.0; n]),
+            ("R", vec![1.0; n]),
+        ],
+    );
+    let i = write(
+        d.path(),
+        "i.exr",
+        8,
+        8,
+        &[
+            ("A", vec![100.0; n]),
+            ("B", vec![0.0; n]),
+            ("G", vec![0.0; n]),
+            ("R", vec![0.0; n]),
+        ],
+    );
+    let v = json(&run(&[&i, &r, Path::new("--json")]));
+    let region = &v["regions"][0];
+    close(&region["ssim"], 1e-4 / (1.0 + 1e-4));
+    close(&region["rel_rmse"], 1.0);
+    close(&region["mean_ratio"], 0.0);
+    close(&region["psnr_db"], 0.0);
+    assert_eq!(v["measured_channels"], serde_json::json!(["B", "G", "R"]));
+    // An image against itself: relRMSE 0, SSIM 1, PSNR infinite (null).
+    let v = json(&run(&[&r, &r, Path::new("--json")]));
+    close(&v["regions"][0]["rel_rmse"], 0.0);
+    close(&v["regions"][0]["ssim"], 1.0);
+    assert!(v["regions"][0]["psnr_db"].is_null());
+}
+
+#[test]
+fn error_map_colours_and_colour_bar() {
+    let d = tempfile::tempdir().unwrap();
+    let (i, r) = pair(d.path());
+    let png = d.path().join("maps/err.png");
+    let m = write(d.path(), "m.exr", 2, 2, &[("Y", vec![1.0, 1.0, 0.0, 0.0])]);
+    let out = run(&[
+        &i,
+        &r,
+        Path::new("--error-map"),
+        &png,
+        Path::new("--error-map-max"),
+        Path::new("1"),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let map = image::open(&png).unwrap().into_rgb8();
+    // The image, then the colour bar's panel; at least 180 pixels tall for the labels.
+    assert_eq!(map.dimensions(), (2 + 104, 180));
+    // Per-pixel error |I - R| / mean(R): 0 at pixel 0 (viridis bottom), 0.5 at pixel 1
+    // (viridis middle) on a scale to 1.
+    assert_eq!(map.get_pixel(0, 0).0, [68, 1, 84]);
+    assert_eq!(map.get_pixel(1, 0).0, [33, 144, 141]);
+    // The bar's top is the top colour, its bottom the bottom colour.
+    assert_eq!(map.get_pixel(2 + 12 + 8, 28).0, [253, 231, 37]);
+    assert_eq!(map.get_pixel(2 + 12 + 8, 180 - 12).0, [68, 1, 84]);
+    // Labels: white text somewhere right of the bar.
+    let labelled = (2 + 36..2 + 104)
+        .flat_map(|x| (0..180).map(move |y| (x, y)))
+        .filter(|&(x, y)| map.get_pixel(x, y).0.iter().all(|&c| c > 200))
+        .count();
+    assert!(labelled > 20, "{labelled} white label pixels");
+    // With a mask, pixels outside it are grey.
+    let out = run(&[
+        &i,
+        &r,
+        Path::new("--mask"),
+        &m,
+        Path::new("--error-map"),
+        &png,
+    ]);
+    assert!(out.status.success());
+    let map = image::open(&png).unwrap().into_rgb8();
+    assert_eq!(map.get_pixel(0, 1).0, [72, 72, 72]);
+    assert_eq!(map.get_pixel(1, 1).0, [72, 72, 72]);
+    // Default scale top: the 99th percentile of the masked errors (0 and 0.5), i.e. 0.5.
+    assert_eq!(map.get_pixel(1, 0).0, [253, 231, 37]);
+}
+
+#[test]
+fn mismatches_are_one_line_errors() {
+    let d = tempfile::tempdir().unwrap();
+    let (i, r) = pair(d.path());
+    let p = |s: &Path| s.display().to_string();
+    let wide = write(d.path(), "wide.exr", 3, 2, &[("Y", vec![0.0; 6])]);
+    assert_eq!(
+        stderr(&run(&[&i, &wide])),
+        format!(
+            "photondiff: error: {} is 2 x 2 pixels but the reference {} is 3 x 2\n",
+            p(&i),
+            p(&wide)
+        )
+    );
+    let rgb = write(
+        d.path(),
+        "rgb.exr",
+        2,
+        2,
+        &[
+            ("B", vec![0.0; 4]),
+            ("G", vec![0.0; 4]),
+            ("R", vec![0.0; 4]),
+        ],
+    );
+    assert_eq!(
+        stderr(&run(&[&i, &rgb])),
+        format!(
+            "photondiff: error: {} has channels Y but the reference {} has channels B,G,R\n",
+            p(&i),
+            p(&rgb)
+        )
+    );
+    let small = write(d.path(), "small.exr", 1, 2, &[("Y", vec![1.0; 2])]);
+    assert_eq!(
+        stderr(&run(&[&i, &r, Path::new("--mask"), &small])),
+        format!(
+            "photondiff: error: mask {} is 1 x 2 pixels but the images are 2 x 2\n",
+            p(&small)
+        )
+    );
+    let empty = write(
+        d.path(),
+        "empty.exr",
+        2,
+        2,
+        &[("Y", vec![0.0, -1.0, 0.0, 0.0])],
+    );
+    assert_eq!(
+        stderr(&run(&[&i, &r, Path::new("--mask"), &empty])),
+        format!(
+            "photondiff: error: mask {} selects no pixel (no value above 0)\n",
+            p(&empty)
+        )
+    );
+    let nan = write(
+        d.path(),
+        "nan.exr",
+        2,
+        2,
+        &[("Y", vec![0.0, 0.0, f64::NAN, 0.0])],
+    );
+    assert_eq!(
+        stderr(&run(&[&nan, &r])),
+        format!(
+            "photondiff: error: {}: channel Y of pixel (0, 1) is not finite (NaN)\n",
+            p(&nan)
+        )
+    );
+    let missing = d.path().join("missing.exr");
+    assert_eq!(
+        stderr(&run(&[&i, &missing])),
+        format!(
+            "photondiff: error: {}: cannot open: No such file or directory (os error 2)\n",
+            p(&missing)
+        )
+    );
+    let junk = d.path().join("junk.exr");
+    std::fs::write(&junk, b"not an image at all").unwrap();
+    let e = stderr(&run(&[&junk, &r]));
+    assert!(
+        e.starts_with(&format!(
+            "photondiff: error: {}: cannot read EXR: ",
+            p(&junk)
+        )),
+        "{e}"
+    );
+    assert_eq!(e.lines().count(), 1, "{e}");
+    // A reference that is black where measured: relRMSE undefined, so no threshold can pass.
+    let black = write(d.path(), "black.exr", 2, 2, &[("Y", vec![0.0; 4])]);
+    assert_eq!(
+        stderr(&run(&[&i, &black, Path::new("--max-relrmse"), Path::new("1")])),
+        "photondiff: error: relRMSE over image is undefined (the reference's mean is 0) and cannot be checked against --max-relrmse 1\n"
+    );
+}
