@@ -6,7 +6,7 @@ OUT   ?= out
 APT_PACKAGES := libembree-dev libclang-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
 
-.PHONY: render test bench deps check
+.PHONY: render test bench deps check report-example
 
 render: deps
 	cargo build --release
@@ -18,6 +18,25 @@ test: deps
 
 bench: deps
 	cargo bench
+
+# The example report committed in docs/report/ (README): three methods at 320 x 240 beside a
+# light-traced reference of 2 x 10^8 paths, with the speed-against-error chart.
+EXAMPLE    := out/example
+PHOTONDIFF ?= ./target/release/photondiff
+report-example: deps
+	cargo build --release
+	mkdir -p $(EXAMPLE)
+	sed -e 's/^width = 640$$/width = 320/' -e 's/^height = 480$$/height = 240/' scenes/caustic-sphere.toml > $(EXAMPLE)/scene.toml
+	$(PHOTONDIFF) render $(EXAMPLE)/scene.toml -q --estimator lighttrace --light-paths 200000000 -o $(EXAMPLE)/reference.exr
+	$(PHOTONDIFF) render $(EXAMPLE)/scene.toml -q -o $(EXAMPLE)/regular-1x1.exr
+	$(PHOTONDIFF) render $(EXAMPLE)/scene.toml -q --view-grid 3 -o $(EXAMPLE)/regular-3x3.exr
+	$(PHOTONDIFF) render $(EXAMPLE)/scene.toml -q --estimator multisampled -o $(EXAMPLE)/multisampled-8x8.exr
+	rm -rf docs/report
+	$(PHOTONDIFF) report --reference $(EXAMPLE)/reference.exr --scene $(EXAMPLE)/scene.toml \
+		"Regular 1x1=$(EXAMPLE)/regular-1x1.exr" "Regular 3x3=$(EXAMPLE)/regular-3x3.exr" \
+		"Multi-sampled 8x8=$(EXAMPLE)/multisampled-8x8.exr" \
+		--table docs/timing_table.json --chart docs/speed_vs_error.svg \
+		--title "Example report: canonical scene at 320 x 240" -o docs/report
 
 # Debian packages: Embree 3 headers and library, and libclang for bindgen.
 deps:

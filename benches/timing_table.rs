@@ -4,11 +4,18 @@
 //! Run: `cargo bench --bench timing_table`. Environment: `PHOTONDIFF_REFERENCE_PATHS` (light
 //! paths of the reference, default 1,000,000,000; cached under `out/reference/`),
 //! `PHOTONDIFF_REPEATS` (default 3), `PHOTONDIFF_THREADS` (default: all cores).
+//!
+//! Also writes an HTML report of the run (`photondiff report`'s page) to
+//! `out/timing_table/index.html`: every row's image beside the reference, error maps, crops of
+//! the floor, caustic and contour, the table and a chart of time against caustic error; the
+//! table as `out/timing_table/table.json` (for `photondiff report --table`).
 
 use photondiff::embree::Device;
 use photondiff::photons::trace::PhotonOptions;
+use photondiff::reference::chart::{scatter_svg, Point};
 use photondiff::reference::experiment::Method;
 use photondiff::reference::metrics::{rel_rmse, ssim, Regions};
+use photondiff::reference::report::{self, Chart, Region, Render, Report, Table};
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::scene::file::load_scene;
@@ -109,21 +116,92 @@ fn main() -> Result<(), String> {
         reference.relative_noise(&regions.diffuse), reference.relative_noise(&regions.caustic), reference.relative_noise(&regions.contour));
     println!("| method | rendering time (s) | ratio to regular 1x1 | thesis ratio | relRMSE floor | relRMSE caustic | relRMSE contour | SSIM |");
     println!("|---|---|---|---|---|---|---|---|");
+    let mut table_rows = Vec::new();
+    let mut points = Vec::new();
     for (k, (method, thesis)) in rows.iter().enumerate() {
         let t = median(times[k].clone());
         let film = films[k].as_ref().expect("rendered");
+        let errors = [
+            rel_rmse(film, &reference.film, &regions.diffuse),
+            rel_rmse(film, &reference.film, &regions.caustic),
+            rel_rmse(film, &reference.film, &regions.contour),
+            ssim(film, &reference.film),
+        ];
+        let thesis = thesis.map_or("".to_string(), |r| format!("{r:.2}"));
         println!(
             "| {} | {:.3} | {:.2} | {} | {:.4} | {:.4} | {:.4} | {:.4} |",
             method.label(),
             t,
             t / base,
-            thesis.map_or("".to_string(), |r| format!("{r:.2}")),
-            rel_rmse(film, &reference.film, &regions.diffuse),
-            rel_rmse(film, &reference.film, &regions.caustic),
-            rel_rmse(film, &reference.film, &regions.contour),
-            ssim(film, &reference.film),
+            thesis,
+            errors[0],
+            errors[1],
+            errors[2],
+            errors[3],
         );
+        let mut row = vec![
+            method.label().into(),
+            format!("{t:.3}").into(),
+            format!("{:.2}", t / base).into(),
+            thesis.into(),
+        ];
+        row.extend(errors.iter().map(|e| format!("{e:.4}").into()));
+        table_rows.push(row);
+        points.push(Point {
+            label: method.label(),
+            x: t,
+            y: errors[1],
+        });
     }
+
+    // The run as a report page.
+    let dir = root.join("out/timing_table");
+    let table = Table {
+        title: "Timing table".into(),
+        columns: ["method", "rendering time (s)", "ratio to regular 1x1", "thesis ratio", "relRMSE floor", "relRMSE caustic", "relRMSE contour", "SSIM"]
+            .map(String::from).to_vec(),
+        rows: table_rows,
+        notes: vec![format!(
+            "Canonical scene, {} global + {} caustic photons; rendering time: median of {repeats}, methods alternated, {} threads; reference: {paths} light paths.",
+            options.global_photons, options.caustic_photons, pool.current_num_threads()
+        )],
+    };
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    std::fs::write(
+        dir.join("table.json"),
+        serde_json::to_string_pretty(&table).map_err(|e| e.to_string())?,
+    )
+    .map_err(|e| e.to_string())?;
+    let mask = |pixels: &[usize]| {
+        let mut m = vec![false; reference.film.pixels.len()];
+        pixels.iter().for_each(|&i| m[i] = true);
+        m
+    };
+    let page = report::write(
+        &Report {
+            title: "Timing table: canonical scene".into(),
+            notes: vec![format!("Reference: light tracing, {paths} paths. Regions: floor = first hit diffuse; caustic = reference above 1.5 x the unblocked direct light; contour = the tenth of the caustic with the largest reference gradient.")],
+            reference: Render { label: "reference".into(), film: reference.film.clone() },
+            renders: rows
+                .iter()
+                .zip(&films)
+                .map(|((m, _), f)| Render { label: m.label(), film: f.clone().expect("rendered") })
+                .collect(),
+            regions: vec![
+                Region { name: "floor".into(), mask: mask(&regions.diffuse) },
+                Region { name: "caustic".into(), mask: mask(&regions.caustic) },
+                Region { name: "contour".into(), mask: mask(&regions.contour) },
+            ],
+            tables: vec![table],
+            charts: vec![Chart::Svg {
+                name: "rendering time against caustic error".into(),
+                svg: scatter_svg("Rendering time against caustic error", "rendering time (s)", "relRMSE caustic", &points),
+            }],
+            exposure: 0.0,
+        },
+        &dir,
+    )?;
+    eprintln!("report: {}", page.display());
 
     // Scaling with threads: one thread against all, alternated.
     let all = pool.current_num_threads();

@@ -30,6 +30,9 @@ enum Command {
     /// Compare an image with a reference: relRMSE, RMSE, PSNR, mean ratio and SSIM, over the
     /// whole image or masks; optionally an error map and a threshold for scripts.
     Compare(cli::compare::CompareArgs),
+    /// Write an HTML report (one folder, no network): renders beside a reference with
+    /// synchronized zoom and pan, error maps, crops of the regions of interest, tables, charts.
+    Report(cli::report::ReportArgs),
 }
 
 fn main() -> ExitCode {
@@ -40,6 +43,7 @@ fn main() -> ExitCode {
         Command::Merge(args) => cli::merge::run(&args),
         Command::Photons(args) => cli::photons::run(&args),
         Command::Compare(args) => cli::compare::run(&args),
+        Command::Report(args) => cli::report::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

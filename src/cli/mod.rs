@@ -5,6 +5,7 @@ pub mod merge;
 pub mod photons;
 pub mod reference;
 pub mod render;
+pub mod report;
 
 use std::path::Path;
 

@@ -1,0 +1,199 @@
+//! `photondiff report`: an HTML page (one folder, no network) showing renders beside a
+//! reference, with error maps, crops of the regions of interest, tables and charts.
+
+use photondiff::embree::Device;
+use photondiff::reference::compare::read_mask;
+use photondiff::reference::metrics::Regions;
+use photondiff::reference::report::{self, Chart, Region, Render, Report, Table};
+use photondiff::render::film::Film;
+use photondiff::scene::file::load_scene;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+pub struct ReportArgs {
+    /// The renders to show (EXR, RGB), each captioned with its file name without the extension,
+    /// or LABEL=FILE.exr to caption it LABEL.
+    #[arg(required = true, value_name = "RENDER.exr")]
+    renders: Vec<String>,
+    /// The reference the renders are judged against (EXR of the same size).
+    #[arg(long, value_name = "REF.exr")]
+    reference: PathBuf,
+    /// Folder to write: index.html and img/ (created; files of the same names replaced).
+    #[arg(
+        short = 'o',
+        long = "output",
+        value_name = "DIR",
+        default_value = "out/report"
+    )]
+    output: PathBuf,
+    /// Scene file the images were rendered from: its regions of interest (floor = pixels whose
+    /// camera ray first hits a diffuse surface, caustic, contour; as in the timing table) are
+    /// measured and cropped. Its camera must have the reference's size.
+    #[arg(long, value_name = "SCENE.toml")]
+    scene: Option<PathBuf>,
+    /// A region of interest as a mask (EXR of the same size; a pixel counts when any channel is
+    /// above 0), named by its file name. Repeatable.
+    #[arg(long = "mask", value_name = "M.exr")]
+    masks: Vec<PathBuf>,
+    /// A table to show, as JSON: {"title": "...", "columns": [...], "rows": [[...], ...],
+    /// "notes": [...]} (cells strings or numbers). Repeatable. The timing-table bench writes one.
+    #[arg(long = "table", value_name = "FILE.json")]
+    tables: Vec<PathBuf>,
+    /// A chart to show (SVG or PNG, copied into the folder), such as the speed-against-error
+    /// chart. Repeatable.
+    #[arg(long = "chart", value_name = "FILE.svg")]
+    charts: Vec<PathBuf>,
+    /// The page's title.
+    #[arg(long, default_value = "photondiff report")]
+    title: String,
+    /// Exposure of the tone-mapped images in stops: radiance x 2^EV, then sRGB, clamped.
+    #[arg(
+        long,
+        value_name = "EV",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    exposure: f64,
+}
+
+/// `LABEL=FILE` or `FILE` (captioned with its stem). A path that exists is never split.
+fn parse_render(arg: &str) -> (String, PathBuf) {
+    if !Path::new(arg).exists() {
+        if let Some((label, file)) = arg.split_once('=') {
+            if !label.is_empty() {
+                return (label.to_string(), PathBuf::from(file));
+            }
+        }
+    }
+    let path = PathBuf::from(arg);
+    let label = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| arg.to_string());
+    (label, path)
+}
+
+fn read_table(path: &Path) -> Result<Table, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    let table: Table = serde_json::from_str(&text)
+        .map_err(|e| format!("{}: not a report table: {e}", path.display()))?;
+    if let Some((k, row)) = table
+        .rows
+        .iter()
+        .enumerate()
+        .find(|(_, r)| r.len() != table.columns.len())
+    {
+        return Err(format!(
+            "{}: row {} has {} cells but there are {} columns",
+            path.display(),
+            k + 1,
+            row.len(),
+            table.columns.len()
+        ));
+    }
+    Ok(table)
+}
+
+/// The scene's regions of interest for `reference`.
+fn scene_regions(path: &Path, reference: &Film) -> Result<Vec<Region>, String> {
+    let scene = load_scene(path).map_err(|e| e.to_string())?;
+    if (scene.camera.width, scene.camera.height) != (reference.width, reference.height) {
+        return Err(format!(
+            "{}: the camera is {} x {} pixels but the reference is {} x {}",
+            path.display(),
+            scene.camera.width,
+            scene.camera.height,
+            reference.width,
+            reference.height
+        ));
+    }
+    let device = Device::new().map_err(|e| e.to_string())?;
+    let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
+    let regions = Regions::new(&scene, &embree, reference);
+    let n = reference.pixels.len();
+    let mask = |pixels: &[usize]| {
+        let mut m = vec![false; n];
+        for &i in pixels {
+            m[i] = true;
+        }
+        m
+    };
+    Ok(vec![
+        Region {
+            name: "floor".into(),
+            mask: mask(&regions.diffuse),
+        },
+        Region {
+            name: "caustic".into(),
+            mask: mask(&regions.caustic),
+        },
+        Region {
+            name: "contour".into(),
+            mask: mask(&regions.contour),
+        },
+    ])
+}
+
+pub fn run(args: &ReportArgs) -> Result<(), String> {
+    let reference = Film::read_exr(&args.reference)?;
+    let mut renders = Vec::new();
+    for arg in &args.renders {
+        let (label, path) = parse_render(arg);
+        let film = Film::read_exr(&path)?;
+        if (film.width, film.height) != (reference.width, reference.height) {
+            return Err(format!(
+                "{} is {} x {} pixels but the reference {} is {} x {}",
+                path.display(),
+                film.width,
+                film.height,
+                args.reference.display(),
+                reference.width,
+                reference.height
+            ));
+        }
+        renders.push(Render { label, film });
+    }
+    let mut regions = match &args.scene {
+        Some(scene) => scene_regions(scene, &reference)?,
+        None => Vec::new(),
+    };
+    for path in &args.masks {
+        let (w, h) = (reference.width as usize, reference.height as usize);
+        regions.push(Region {
+            name: parse_render(&path.to_string_lossy()).0,
+            mask: read_mask(path, w, h)?,
+        });
+    }
+    let tables = args
+        .tables
+        .iter()
+        .map(|p| read_table(p))
+        .collect::<Result<Vec<_>, _>>()?;
+    for c in &args.charts {
+        std::fs::metadata(c).map_err(|e| format!("{}: cannot open: {e}", c.display()))?;
+    }
+    let mut notes = vec![format!("Reference: {}.", args.reference.display())];
+    if let Some(scene) = &args.scene {
+        notes.push(format!(
+            "Regions of the scene {}: floor = pixels whose camera ray first hits a diffuse surface; caustic = floor pixels where the reference exceeds 1.5 x the unblocked direct light; contour = the tenth of the caustic with the largest reference gradient.",
+            scene.display()
+        ));
+    }
+    let report = Report {
+        title: args.title.clone(),
+        notes,
+        reference: Render {
+            label: "reference".into(),
+            film: reference,
+        },
+        renders,
+        regions,
+        tables,
+        charts: args.charts.iter().cloned().map(Chart::File).collect(),
+        exposure: args.exposure,
+    };
+    let page = report::write(&report, &args.output)?;
+    println!("report: {}", page.display());
+    Ok(())
+}
