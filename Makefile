@@ -5,6 +5,9 @@ SCENE ?= scenes/caustic-sphere.toml
 OUT   ?= out
 APT_PACKAGES := libembree-dev libclang-dev
 SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+# The release decides which Embree libembree-dev holds: 3 on bookworm, 4 on trixie and noble.
+RELEASE := $(shell . /etc/os-release 2>/dev/null && echo "$$ID $$VERSION_CODENAME")
+EMBREE_OF_RELEASE = $(if $(filter bookworm,$(RELEASE)),Embree 3,$(if $(filter trixie noble,$(RELEASE)),Embree 4,Embree 3 or 4))
 
 .PHONY: render test bench deps check report-example
 
@@ -15,6 +18,7 @@ render: deps
 
 test: deps
 	cargo test
+	scripts/test-embree4.sh
 
 bench: deps
 	cargo bench
@@ -38,11 +42,14 @@ report-example: deps
 		--table docs/timing_table.json --chart docs/speed_vs_error.svg \
 		--title "Example report: canonical scene at 320 x 240" -o docs/report
 
-# Debian packages: Embree 3 headers and library, and libclang for bindgen.
+# Debian/Ubuntu packages: Embree headers and library (build.rs takes Embree 4, else 3), and
+# libclang for bindgen. The same package names on bookworm (Embree 3), trixie and noble (Embree 4).
 deps:
-	@if [ ! -f /usr/include/embree3/rtcore.h ] && [ -z "$$EMBREE_DIR" ] || ! ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1; then \
-		echo "installing $(APT_PACKAGES)"; \
-		$(SUDO) apt-get update -qq && $(SUDO) apt-get install -y --no-install-recommends $(APT_PACKAGES); \
+	@if [ ! -f /usr/include/embree4/rtcore.h ] && [ ! -f /usr/include/embree3/rtcore.h ] && [ -z "$$EMBREE_DIR" ] \
+		|| ! ls /usr/lib/llvm-*/lib/libclang*.so* >/dev/null 2>&1; then \
+		echo "installing $(APT_PACKAGES) ($(EMBREE_OF_RELEASE) on $(RELEASE))"; \
+		{ $(SUDO) apt-get update -qq && $(SUDO) apt-get install -y --no-install-recommends $(APT_PACKAGES); } \
+		|| { echo "photondiff: could not install the packages $(APT_PACKAGES) ($(EMBREE_OF_RELEASE) on $(RELEASE)): install them by hand, or set EMBREE_DIR to an Embree 3 or 4 prefix"; exit 1; }; \
 	fi
 	@command -v cargo >/dev/null || { echo "cargo not found: install Rust (rustup) first"; exit 1; }
 

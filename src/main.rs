@@ -8,7 +8,8 @@ mod cli;
 #[derive(Parser)]
 #[command(
     name = "photondiff",
-    version,
+    // The Embree backend build.rs chose (3 or 4) is part of what this binary is.
+    version = concat!(env!("CARGO_PKG_VERSION"), " (Embree ", env!("PHOTONDIFF_EMBREE_VERSION"), ")"),
     about = "Photon mapping with photon differentials; ray queries through Intel Embree"
 )]
 struct Cli {

@@ -1,7 +1,9 @@
 //! The Embree layer: known hits, packets against single rays, invalid rays, mesh validation.
 
 use glam::DVec3;
-use photondiff::embree::{Device, EmbreeError, Hit, Ray, Scene, SceneBuilder, TriangleMesh};
+use photondiff::embree::{
+    Device, EmbreeError, Hit, RawRays, Ray, Scene, SceneBuilder, TriangleMesh,
+};
 use photondiff::scene::shapes;
 use photondiff::util::rng::Rng;
 
@@ -114,6 +116,24 @@ fn packets_agree_with_single_rays() {
 }
 
 #[test]
+fn raw_throughput_calls_count_what_the_safe_calls_answer() {
+    // The benchmarks' raw calls go through the same backend calls without post-processing.
+    let scene = scene();
+    let rays = random_rays(16 * 20 + 7, 5);
+    let raw = RawRays::new(&rays);
+    assert_eq!(raw.len(), rays.len());
+    let hits = rays.iter().filter(|r| scene.intersect(r).is_some()).count();
+    let blocked = rays.iter().filter(|r| scene.occluded(r)).count();
+    assert!(hits > 50 && hits < rays.len() - 50, "{hits}");
+    assert_eq!(scene.raw_intersect1(&raw), hits);
+    assert_eq!(scene.raw_occluded1(&raw), blocked);
+    for coherent in [false, true] {
+        assert_eq!(scene.raw_intersect16(&raw, coherent), hits);
+        assert_eq!(scene.raw_occluded16(&raw, coherent), blocked);
+    }
+}
+
+#[test]
 fn invalid_rays_are_misses_counted_and_never_abort() {
     let scene = scene();
     let good = Ray::new(DVec3::new(0.5, -0.5, 1.5), DVec3::NEG_Z);
@@ -201,4 +221,35 @@ fn malformed_meshes_are_rejected_with_a_reason() {
         let err: EmbreeError = builder.add_mesh(&mesh).unwrap_err();
         assert_eq!(err.to_string(), message);
     }
+}
+
+#[test]
+fn the_library_is_the_version_of_the_headers() {
+    // BACKEND comes from the headers the bindings were generated from; the device reports the
+    // library's own version (and refuses to start on a mismatch).
+    let device = Device::new().unwrap();
+    let version = device.library_version();
+    assert_eq!(format!("Embree {version}"), photondiff::embree::BACKEND);
+    assert!(
+        version.starts_with(&format!("{}.", photondiff::embree::API_VERSION)),
+        "{version}"
+    );
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn exactly_one_embree_library_is_loaded() {
+    // Embree 3 and 4 export the same C symbols: a binary must never load both.
+    let _device = Device::new().unwrap();
+    let maps = std::fs::read_to_string("/proc/self/maps").unwrap();
+    let mut embrees: Vec<&str> = maps
+        .lines()
+        .filter_map(|line| line.split('/').next_back())
+        .filter(|file| file.starts_with("libembree"))
+        .collect();
+    embrees.sort_unstable();
+    embrees.dedup();
+    let expected = format!("libembree{}", photondiff::embree::API_VERSION);
+    assert_eq!(embrees.len(), 1, "{embrees:?}");
+    assert!(embrees[0].starts_with(&expected), "{embrees:?}");
 }

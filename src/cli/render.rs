@@ -111,7 +111,10 @@ pub struct RenderArgs {
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     let kind = estimator_kind(args);
     let stop = stop_rules(args)?;
-    let mut stats = Stats::default();
+    let mut stats = Stats {
+        embree: photondiff::embree::BACKEND.to_string(),
+        ..Stats::default()
+    };
     let scene = stats
         .time("load scene", || load_scene(&args.scene))
         .map_err(|e| e.to_string())?;
@@ -252,6 +255,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ),
         ("photondiff/overlap".to_string(), args.overlap.to_string()),
         ("photondiff/seed".to_string(), args.seed.to_string()),
+        (
+            "photondiff/embree".to_string(),
+            photondiff::embree::BACKEND.to_string(),
+        ),
         (
             "photondiff/max_depth".to_string(),
             args.max_depth.to_string(),

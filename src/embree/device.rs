@@ -81,6 +81,19 @@ pub struct Device {
 }
 
 impl Device {
+    /// The version of the Embree library in use as Embree reports it, e.g. "4.3.3"; always the
+    /// version of the headers in [`BACKEND`](super::BACKEND) (the device refuses any other).
+    pub fn library_version(&self) -> String {
+        // SAFETY: the device is valid while `self` holds it.
+        let v = unsafe {
+            ffi::rtcGetDeviceProperty(
+                self.handle.raw,
+                ffi::RTCDeviceProperty::RTC_DEVICE_PROPERTY_VERSION,
+            )
+        };
+        format!("{}.{}.{}", v / 10000, v / 100 % 100, v % 100)
+    }
+
     /// Creates a device with Embree's default configuration.
     pub fn new() -> Result<Self, EmbreeError> {
         // SAFETY: a null config string asks for the defaults.
@@ -91,6 +104,23 @@ impl Device {
             return Err(EmbreeError::Embree {
                 code: code.0,
                 message: "rtcNewDevice failed (is the CPU supported by this Embree build?)".into(),
+            });
+        }
+        // Headers of one version and a library of another disagree on struct layouts: refuse.
+        // SAFETY: `raw` is a valid device; the version property takes no other argument.
+        let library = unsafe {
+            ffi::rtcGetDeviceProperty(raw, ffi::RTCDeviceProperty::RTC_DEVICE_PROPERTY_VERSION)
+        };
+        if library != ffi::RTC_VERSION as isize {
+            // SAFETY: `raw` came from rtcNewDevice and is not used again.
+            unsafe { ffi::rtcReleaseDevice(raw) };
+            return Err(EmbreeError::Embree {
+                code: 0,
+                message: format!(
+                    "the Embree library is version {library}, but photondiff was built with the \
+                     headers of version {} (RTC_VERSION): rebuild photondiff against this library",
+                    ffi::RTC_VERSION
+                ),
             });
         }
         let errors: Arc<ErrorSlot> = Arc::new(Mutex::new(None));

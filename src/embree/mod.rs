@@ -1,4 +1,4 @@
-//! The safe layer over Intel Embree 3 — the only module of photondiff that contains `unsafe`.
+//! The safe layer over Intel Embree (3 or 4) — the only module of photondiff that contains `unsafe`.
 //!
 //! Everything above this module sees safe types:
 //! - [`Device`]: an Embree device whose error callback turns Embree errors into [`EmbreeError`];
@@ -12,9 +12,15 @@
 //! validated here first ([`Ray::is_valid`]); an invalid ray is counted ([`Scene::invalid_rays`]) and
 //! answered as a miss.
 //!
-//! Embree 4 differs from Embree 3 mainly in the arguments of `rtcIntersect1`/`rtcOccluded1`
-//! (optional argument structs instead of a context): all of those calls live in `query.rs`, so a
-//! second backend replaces that file and the bindings, nothing above this module.
+//! Two backends, chosen by build.rs from what is installed (Embree 4 first, then Embree 3; the
+//! features `embree3` / `embree4` force one): the bindings come from the installed headers, and
+//! everything that differs between the two APIs (the arguments of the traversal calls) lives in
+//! `v3.rs` / `v4.rs`. Nothing above this module sees which one is in use, except [`BACKEND`].
+
+#[cfg(embree_api = "3")]
+use v3 as api;
+#[cfg(embree_api = "4")]
+use v4 as api;
 
 mod device;
 mod ffi;
@@ -22,6 +28,10 @@ mod hit;
 mod query;
 mod ray;
 mod scene;
+#[cfg(embree_api = "3")]
+mod v3;
+#[cfg(embree_api = "4")]
+mod v4;
 
 pub use device::{Device, EmbreeError};
 pub use hit::Hit;
@@ -31,3 +41,14 @@ pub use scene::{Scene, SceneBuilder, TriangleMesh};
 
 /// Width of the ray packets traced by [`Scene::intersect16`] and [`Scene::occluded16`].
 pub const PACKET_WIDTH: usize = 16;
+
+/// The Embree this build uses, e.g. "Embree 4.3.3": the version of the headers the bindings were
+/// generated from. [`Device::new`] refuses a library of any other version.
+pub const BACKEND: &str = concat!("Embree ", env!("PHOTONDIFF_EMBREE_VERSION"));
+
+/// The Embree API major version this build uses (3 or 4).
+#[cfg(embree_api = "3")]
+pub const API_VERSION: u32 = 3;
+/// The Embree API major version this build uses (3 or 4).
+#[cfg(embree_api = "4")]
+pub const API_VERSION: u32 = 4;

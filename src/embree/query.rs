@@ -1,6 +1,7 @@
-//! Ray queries: single rays and 16-wide packets. Every call into Embree's traversal lives here
-//! (Embree 4 changes these signatures; a second backend replaces this file).
+//! Ray queries: single rays and 16-wide packets. Every traversal call goes through `api`, the
+//! backend module (`v3.rs` or `v4.rs`) whose signatures match the installed Embree.
 
+use super::api::{self, IntersectArgs, OccludedArgs};
 use super::ffi;
 use super::hit::Hit;
 use super::ray::Ray;
@@ -40,11 +41,14 @@ fn single_ray(ray: &Ray) -> ffi::RTCRay {
 }
 
 fn empty_hit() -> ffi::RTCHit {
-    ffi::RTCHit {
+    // As the headers' `rtcInitRayHit`: no geometry and no instance.
+    let mut hit = ffi::RTCHit {
         geomID: ffi::INVALID_GEOMETRY_ID,
         primID: ffi::INVALID_GEOMETRY_ID,
         ..Default::default()
-    }
+    };
+    hit.instID.fill(ffi::INVALID_GEOMETRY_ID);
+    hit
 }
 
 /// Writes `ray` into lane `lane` of a packet's ray part.
@@ -70,14 +74,14 @@ impl Scene {
             self.count_invalid();
             return None;
         }
-        let mut context = ffi::intersect_context(false);
+        let mut args = IntersectArgs::new(false);
         let mut rayhit = ffi::RTCRayHit {
             ray: single_ray(ray),
             hit: empty_hit(),
         };
         // SAFETY: the scene is committed, the ray was validated, and both structs are properly
         // aligned locals that outlive the call.
-        unsafe { ffi::rtcIntersect1(self.raw, &mut context, &mut rayhit) };
+        unsafe { api::intersect1(self.raw, &mut rayhit, &mut args) };
         let hit = &rayhit.hit;
         (hit.geomID != ffi::INVALID_GEOMETRY_ID)
             .then(|| self.make_hit(ray, hit.geomID, hit.primID, hit.u, hit.v, rayhit.ray.tfar))
@@ -90,10 +94,10 @@ impl Scene {
             self.count_invalid();
             return false;
         }
-        let mut context = ffi::intersect_context(false);
+        let mut args = OccludedArgs::new(false);
         let mut raw = single_ray(ray);
         // SAFETY: as in `intersect`.
-        unsafe { ffi::rtcOccluded1(self.raw, &mut context, &mut raw) };
+        unsafe { api::occluded1(self.raw, &mut raw, &mut args) };
         // Embree sets tfar to -inf when the ray is occluded.
         raw.tfar < 0.0
     }
@@ -113,10 +117,13 @@ impl Scene {
                 self.count_invalid();
             }
             packet.0.hit.geomID[lane] = ffi::INVALID_GEOMETRY_ID;
+            for level in &mut packet.0.hit.instID {
+                level[lane] = ffi::INVALID_GEOMETRY_ID;
+            }
         }
-        let mut context = ffi::intersect_context(coherent);
+        let mut args = IntersectArgs::new(coherent);
         // SAFETY: packet and mask are 64-byte aligned; only lanes holding validated rays are active.
-        unsafe { ffi::rtcIntersect16(valid.0.as_ptr(), self.raw, &mut context, &mut packet.0) };
+        unsafe { api::intersect16(&valid.0, self.raw, &mut packet.0, &mut args) };
         let (r, h) = (&packet.0.ray, &packet.0.hit);
         for (lane, hit) in hits.iter_mut().enumerate().take(rays.len()) {
             *hit = (valid.0[lane] != 0 && h.geomID[lane] != ffi::INVALID_GEOMETRY_ID).then(|| {
@@ -146,9 +153,9 @@ impl Scene {
                 self.count_invalid();
             }
         }
-        let mut context = ffi::intersect_context(coherent);
+        let mut args = OccludedArgs::new(coherent);
         // SAFETY: packet and mask are 64-byte aligned; only lanes holding validated rays are active.
-        unsafe { ffi::rtcOccluded16(valid.0.as_ptr(), self.raw, &mut context, &mut packet.0) };
+        unsafe { api::occluded16(&valid.0, self.raw, &mut packet.0, &mut args) };
         for (lane, b) in blocked.iter_mut().enumerate().take(rays.len()) {
             *b = valid.0[lane] != 0 && packet.0.tfar[lane] < 0.0;
         }
@@ -157,7 +164,7 @@ impl Scene {
     /// Embree's raw single-ray throughput on `rays`, for benchmarks: `rtcIntersect1` with no
     /// validation and no hit post-processing. Returns the number of hits.
     pub fn raw_intersect1(&self, rays: &RawRays) -> usize {
-        let mut context = ffi::intersect_context(false);
+        let mut args = IntersectArgs::new(false);
         let mut hits = 0;
         for ray in &rays.single {
             let mut rayhit = ffi::RTCRayHit {
@@ -165,7 +172,7 @@ impl Scene {
                 hit: empty_hit(),
             };
             // SAFETY: `RawRays` holds only validated rays; the scene is committed.
-            unsafe { ffi::rtcIntersect1(self.raw, &mut context, &mut rayhit) };
+            unsafe { api::intersect1(self.raw, &mut rayhit, &mut args) };
             hits += usize::from(rayhit.hit.geomID != ffi::INVALID_GEOMETRY_ID);
         }
         hits
@@ -173,14 +180,14 @@ impl Scene {
 
     /// Embree's raw 16-wide throughput on `rays` (consecutive groups of 16 as packets).
     pub fn raw_intersect16(&self, rays: &RawRays, coherent: bool) -> usize {
-        let mut context = ffi::intersect_context(coherent);
+        let mut args = IntersectArgs::new(coherent);
         let mut packet = RayHit16::default();
         let mut hits = 0;
         for (chunk, valid) in rays.packets.iter().zip(&rays.valid) {
             packet.0.ray = chunk.0;
             packet.0.hit.geomID = [ffi::INVALID_GEOMETRY_ID; PACKET_WIDTH];
             // SAFETY: aligned packet and mask; active lanes hold validated rays.
-            unsafe { ffi::rtcIntersect16(valid.0.as_ptr(), self.raw, &mut context, &mut packet.0) };
+            unsafe { api::intersect16(&valid.0, self.raw, &mut packet.0, &mut args) };
             hits += packet
                 .0
                 .hit
@@ -194,12 +201,12 @@ impl Scene {
 
     /// Embree's raw single-ray occlusion throughput on `rays`. Returns the number blocked.
     pub fn raw_occluded1(&self, rays: &RawRays) -> usize {
-        let mut context = ffi::intersect_context(false);
+        let mut args = OccludedArgs::new(false);
         let mut blocked = 0;
         for ray in &rays.single {
             let mut raw = *ray;
             // SAFETY: as in `raw_intersect1`.
-            unsafe { ffi::rtcOccluded1(self.raw, &mut context, &mut raw) };
+            unsafe { api::occluded1(self.raw, &mut raw, &mut args) };
             blocked += usize::from(raw.tfar < 0.0);
         }
         blocked
@@ -207,13 +214,13 @@ impl Scene {
 
     /// Embree's raw 16-wide occlusion throughput on `rays`. Returns the number blocked.
     pub fn raw_occluded16(&self, rays: &RawRays, coherent: bool) -> usize {
-        let mut context = ffi::intersect_context(coherent);
+        let mut args = OccludedArgs::new(coherent);
         let mut packet = Ray16::default();
         let mut blocked = 0;
         for (chunk, valid) in rays.packets.iter().zip(&rays.valid) {
             packet.0 = chunk.0;
             // SAFETY: aligned packet and mask; active lanes hold validated rays.
-            unsafe { ffi::rtcOccluded16(valid.0.as_ptr(), self.raw, &mut context, &mut packet.0) };
+            unsafe { api::occluded16(&valid.0, self.raw, &mut packet.0, &mut args) };
             blocked += (0..PACKET_WIDTH)
                 .filter(|&lane| valid.0[lane] != 0 && packet.0.tfar[lane] < 0.0)
                 .count();

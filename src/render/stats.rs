@@ -44,6 +44,8 @@ pub struct Stage {
 /// Statistics of one run.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Stats {
+    /// The Embree backend that traced the rays, e.g. "Embree 4.3.3" (empty when not recorded).
+    pub embree: String,
     /// Timed stages in order.
     pub stages: Vec<Stage>,
     /// Rays by kind.
@@ -148,6 +150,9 @@ impl Stats {
         let mut out = String::from("statistics:\n");
         for s in &self.stages {
             out += &format!("  {:<20} {:>10.3} s\n", s.name, s.seconds);
+        }
+        if !self.embree.is_empty() {
+            out += &format!("  ray queries: {}\n", self.embree);
         }
         let render = self.seconds("render");
         let r = &self.rays;

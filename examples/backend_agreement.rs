@@ -1,0 +1,111 @@
+//! Checks that two renders of one scene by two Embree backends agree: run by
+//! `scripts/test-embree4.sh` on the canonical scene rendered by the Embree 3 and the Embree 4
+//! builds.
+//!
+//!     backend_agreement A.exr B.exr A.stats.json B.stats.json
+//!
+//! Same hits mean the same rays, photons and gathers: the statistics must be equal except for the
+//! timings and the backend's name. photondiff recomputes every hit point, normal and distance in
+//! double precision from the mesh and uses only the triangle Embree names (`Scene::make_hit`), so
+//! the same hits give the same pixels bit for bit: any pixel that differs is reported and fails.
+//! (Embree's own distances, which differ in the last bits between versions, are used only for
+//! rays parallel to a triangle's plane.)
+
+use photondiff::render::film::Film;
+use serde_json::Value;
+use std::path::Path;
+use std::process::ExitCode;
+
+fn stats(path: &str) -> Result<Value, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
+    let mut value: Value = serde_json::from_str(&text).map_err(|e| format!("{path}: {e}"))?;
+    let object = value
+        .as_object_mut()
+        .ok_or_else(|| format!("{path}: not a JSON object"))?;
+    // Wall-clock times and the backend's name are expected to differ.
+    object.remove("stages");
+    object.remove("embree");
+    Ok(value)
+}
+
+/// The leaves where `a` and `b` differ, as `path: a != b`.
+fn differences(prefix: &str, a: &Value, b: &Value, out: &mut Vec<String>) {
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            for key in x.keys().chain(y.keys().filter(|k| !x.contains_key(*k))) {
+                let (u, v) = (
+                    x.get(key).unwrap_or(&Value::Null),
+                    y.get(key).unwrap_or(&Value::Null),
+                );
+                differences(&format!("{prefix}/{key}"), u, v, out);
+            }
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => {
+            for (i, (u, v)) in x.iter().zip(y).enumerate() {
+                differences(&format!("{prefix}/{i}"), u, v, out);
+            }
+        }
+        _ if a != b => out.push(format!("{prefix}: {a} != {b}")),
+        _ => {}
+    }
+}
+
+fn run(args: &[String]) -> Result<(), String> {
+    let [a, b, sa, sb] = args else {
+        return Err("usage: backend_agreement A.exr B.exr A.stats.json B.stats.json".into());
+    };
+    let mut diffs = Vec::new();
+    differences("stats", &stats(sa)?, &stats(sb)?, &mut diffs);
+    let fa = Film::read_exr(Path::new(a))?;
+    let fb = Film::read_exr(Path::new(b))?;
+    if (fa.width, fa.height) != (fb.width, fb.height) {
+        return Err(format!(
+            "{a} is {}x{}, {b} is {}x{}",
+            fa.width, fa.height, fb.width, fb.height
+        ));
+    }
+    let differing: Vec<usize> = (0..fa.pixels.len())
+        .filter(|&i| fa.pixels[i] != fb.pixels[i])
+        .collect();
+    let mean =
+        fa.pixels.iter().map(|p| p.element_sum() / 3.0).sum::<f64>() / fa.pixels.len() as f64;
+    let max_diff = differing
+        .iter()
+        .map(|&i| (fa.pixels[i] - fb.pixels[i]).abs().max_element())
+        .fold(0.0, f64::max);
+    println!(
+        "backend agreement: {} of {} pixels differ (largest difference {max_diff:.3e}, mean radiance {mean:.3e}); {} statistics differ",
+        differing.len(),
+        fa.pixels.len(),
+        diffs.len()
+    );
+    for d in diffs.iter().take(20) {
+        println!("  {d}");
+    }
+    for &i in differing.iter().take(10) {
+        let w = fa.width as usize;
+        println!(
+            "  pixel ({}, {}): {:?} != {:?}",
+            i % w,
+            i / w,
+            fa.pixels[i].to_array(),
+            fb.pixels[i].to_array()
+        );
+    }
+    if diffs.is_empty() && differing.is_empty() {
+        Ok(())
+    } else {
+        Err("the two backends' renders disagree".into())
+    }
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match run(&args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("backend_agreement: error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
