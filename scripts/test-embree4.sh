@@ -176,14 +176,16 @@ say "Embree 4 headers and library: version $LIBRARY_VERSION in $PREFIX"
 # --- build and test the Embree 4 backend in its own target directory -----------------------------
 export CARGO_TARGET_DIR=$TARGET
 say "testing the Embree 4 backend (target directory $TARGET)"
+# Building integration tests builds the binary too (same profile and features: a separate
+# `cargo build --bin` would resolve dependency features without the dev-dependencies and rebuild).
 EMBREE_DIR=$PREFIX cargo test --features embree4 --lib \
     --test embree_layer --test differentials --test direct_light
-EMBREE_DIR=$PREFIX cargo build --features embree4 --profile test --bin photondiff
 unset CARGO_TARGET_DIR
 
 # --- the canonical render with both backends -----------------------------------------------------
 say "rendering the canonical scene with the Embree 3 and the Embree 4 builds"
-env -u EMBREE_DIR cargo build --profile test --bin photondiff --example backend_agreement
+# The Embree 3 build of `make test` (its binary and examples); up to date after its `cargo test`.
+env -u EMBREE_DIR cargo test --no-run
 rm -rf "$OUT"
 mkdir -p "$OUT"
 for build in 3:"$ROOT/target/debug/photondiff" 4:"$TARGET/debug/photondiff"; do
