@@ -5,13 +5,15 @@ use super::PACKET_WIDTH;
 
 /// Rust version of the header's `RTC_FORCEINLINE rtcInitIntersectContext`, which has no binding.
 fn intersect_context(coherent: bool) -> ffi::RTCIntersectContext {
-    let mut context = ffi::RTCIntersectContext::default();
-    context.flags = if coherent {
-        ffi::RTCIntersectContextFlags::RTC_INTERSECT_CONTEXT_FLAG_COHERENT
-    } else {
-        ffi::RTCIntersectContextFlags::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT
+    let mut context = ffi::RTCIntersectContext {
+        flags: if coherent {
+            ffi::RTCIntersectContextFlags::RTC_INTERSECT_CONTEXT_FLAG_COHERENT
+        } else {
+            ffi::RTCIntersectContextFlags::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT
+        },
+        filter: None,
+        ..Default::default()
     };
-    context.filter = None;
     context.instID.fill(ffi::INVALID_GEOMETRY_ID);
     context
 }

@@ -31,29 +31,34 @@ pub(super) struct OccludedArgs(ffi::RTCOccludedArguments);
 
 impl IntersectArgs {
     /// Rust version of the header's `RTC_FORCEINLINE rtcInitIntersectArguments` (no binding),
-    /// with the coherence hint. The default is all zeros, which is also the header's value of
-    /// `minWidthDistanceFactor` in builds that have it.
+    /// with the coherence hint. The rest is zero, which is also the header's value of
+    /// `minWidthDistanceFactor` in builds that have that field.
+    // The update fills `minWidthDistanceFactor` where the headers have it (RTC_MIN_WIDTH).
+    #[allow(clippy::needless_update)]
     pub(super) fn new(coherent: bool) -> Self {
-        let mut args = ffi::RTCIntersectArguments::default();
-        args.flags = query_flags(coherent);
-        args.feature_mask = ffi::RTCFeatureFlags::RTC_FEATURE_FLAG_ALL;
-        args.context = std::ptr::null_mut();
-        args.filter = None;
-        args.intersect = None;
-        IntersectArgs(args)
+        IntersectArgs(ffi::RTCIntersectArguments {
+            flags: query_flags(coherent),
+            feature_mask: ffi::RTCFeatureFlags::RTC_FEATURE_FLAG_ALL,
+            context: std::ptr::null_mut(),
+            filter: None,
+            intersect: None,
+            ..Default::default()
+        })
     }
 }
 
 impl OccludedArgs {
     /// Rust version of the header's `RTC_FORCEINLINE rtcInitOccludedArguments`, as above.
+    #[allow(clippy::needless_update)]
     pub(super) fn new(coherent: bool) -> Self {
-        let mut args = ffi::RTCOccludedArguments::default();
-        args.flags = query_flags(coherent);
-        args.feature_mask = ffi::RTCFeatureFlags::RTC_FEATURE_FLAG_ALL;
-        args.context = std::ptr::null_mut();
-        args.filter = None;
-        args.occluded = None;
-        OccludedArgs(args)
+        OccludedArgs(ffi::RTCOccludedArguments {
+            flags: query_flags(coherent),
+            feature_mask: ffi::RTCFeatureFlags::RTC_FEATURE_FLAG_ALL,
+            context: std::ptr::null_mut(),
+            filter: None,
+            occluded: None,
+            ..Default::default()
+        })
     }
 }
 
