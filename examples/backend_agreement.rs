@@ -32,7 +32,12 @@ fn stats(path: &str) -> Result<Value, String> {
 fn differences(prefix: &str, a: &Value, b: &Value, out: &mut Vec<String>) {
     match (a, b) {
         (Value::Object(x), Value::Object(y)) => {
+            // Wall-clock times anywhere in the statistics (e.g. `progressive/seconds_per_pass`).
+            let timing = |key: &str| key.contains("seconds");
             for key in x.keys().chain(y.keys().filter(|k| !x.contains_key(*k))) {
+                if timing(key) {
+                    continue;
+                }
                 let (u, v) = (
                     x.get(key).unwrap_or(&Value::Null),
                     y.get(key).unwrap_or(&Value::Null),
