@@ -14,7 +14,7 @@
 //! odd chunks; the reference is their mean, and half their difference estimates its noise.
 
 use crate::embree;
-use crate::reference::light_tracer::{LightTraceOptions, LightTraceResult, LightTracer};
+use crate::reference::light_tracer::{relative_noise, LightTraceOptions, LightTracer};
 use crate::render::film::Film;
 use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
@@ -34,14 +34,7 @@ pub struct Reference {
 impl Reference {
     /// The estimated noise of the reference over `pixels`, relative to its mean there.
     pub fn relative_noise(&self, pixels: &[usize]) -> f64 {
-        LightTraceResult {
-            film: self.film.clone(),
-            half_a: self.half_a.clone(),
-            half_b: self.half_b.clone(),
-            paths: 0,
-            rays: 0,
-        }
-        .relative_noise(pixels)
+        relative_noise(&self.film, &self.half_a, &self.half_b, pixels)
     }
 }
 

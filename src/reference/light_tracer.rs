@@ -89,18 +89,24 @@ impl LightTraceResult {
     /// `sqrt(mean((A - B)^2) / 4) / mean(R)` over pixels and channels (`(A - B) / 2` estimates
     /// the noise of the mean of two halves).
     pub fn relative_noise(&self, pixels: &[usize]) -> f64 {
-        let (mut d2, mut r, mut n) = (0.0, 0.0, 0.0);
-        for &i in pixels {
-            let d = self.half_a.pixels[i] - self.half_b.pixels[i];
-            d2 += d.length_squared();
-            r += self.film.pixels[i].x + self.film.pixels[i].y + self.film.pixels[i].z;
-            n += 3.0;
-        }
-        if r <= 0.0 {
-            return f64::INFINITY;
-        }
-        (d2 / n / 4.0).sqrt() / (r / n)
+        relative_noise(&self.film, &self.half_a, &self.half_b, pixels)
     }
+}
+
+/// The relative noise of an image `film` over `pixels`, from its two independent halves:
+/// `sqrt(mean((A - B)^2) / 4) / mean(R)` over pixels and channels.
+pub fn relative_noise(film: &Film, half_a: &Film, half_b: &Film, pixels: &[usize]) -> f64 {
+    let (mut d2, mut r, mut n) = (0.0, 0.0, 0.0);
+    for &i in pixels {
+        let d = half_a.pixels[i] - half_b.pixels[i];
+        d2 += d.length_squared();
+        r += film.pixels[i].x + film.pixels[i].y + film.pixels[i].z;
+        n += 3.0;
+    }
+    if r <= 0.0 {
+        return f64::INFINITY;
+    }
+    (d2 / n / 4.0).sqrt() / (r / n)
 }
 
 struct Splat {
