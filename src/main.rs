@@ -34,6 +34,9 @@ enum Command {
     /// Write an HTML report (one folder, no network): renders beside a reference with
     /// synchronized zoom and pan, error maps, crops of the regions of interest, tables, charts.
     Report(cli::report::ReportArgs),
+    /// Print what a mesh (.obj, .ply) or scene (.toml) file holds: triangles, bounds, dropped
+    /// and repaired elements, and the memory its meshes take.
+    Info(cli::info::InfoArgs),
 }
 
 fn main() -> ExitCode {
@@ -45,6 +48,7 @@ fn main() -> ExitCode {
         Command::Photons(args) => cli::photons::run(&args),
         Command::Compare(args) => cli::compare::run(&args),
         Command::Report(args) => cli::report::run(&args),
+        Command::Info(args) => cli::info::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

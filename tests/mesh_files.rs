@@ -1,44 +1,368 @@
-//! Valid OBJ and PLY files load into the meshes they describe.
+//! Meshes as modelling tools write them: each case accepted (with what it loads into) or
+//! refused (with its exact message).
 
-use photondiff::scene::mesh_file::load_mesh;
+use photondiff::scene::mesh_file::{load_mesh, load_mesh_with_report, LoadedMesh};
+use std::process::Command;
+
+/// Writes `content` to a file called `name` in a temporary folder and loads it; errors come
+/// back without the folder.
+fn load(name: &str, content: &[u8]) -> Result<LoadedMesh, String> {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join(name);
+    std::fs::write(&path, content).unwrap();
+    load_mesh_with_report(&path).map_err(|e| e.replace(&format!("{}/", dir.path().display()), ""))
+}
+
+fn ok(name: &str, content: &str) -> LoadedMesh {
+    load(name, content.as_bytes()).unwrap()
+}
+
+fn err(name: &str, content: &[u8]) -> String {
+    load(name, content).unwrap_err()
+}
+
+const PLY_TRIANGLE_HEADER: &str = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n\
+    property float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+    end_header\n";
 
 #[test]
 fn ply_polygons_are_fan_triangulated_and_normals_kept() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("quad.ply");
-    std::fs::write(
-        &path,
+    let m = ok(
+        "quad.ply",
         "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n\
          property float nx\nproperty float ny\nproperty float nz\nelement face 1\n\
          property list uchar int vertex_indices\nend_header\n\
          0 0 0 0 0 1\n1 0 0 0 0 1\n1 1 0 0 0 1\n0 1 0 0 0 1\n4 0 1 2 3\n",
-    )
-    .unwrap();
-    let mesh = load_mesh(&path).unwrap();
-    assert_eq!(mesh.positions.len(), 4);
-    assert_eq!(mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
-    assert_eq!(mesh.normals.unwrap()[2], [0.0, 0.0, 1.0]);
+    );
+    assert_eq!(m.mesh.positions.len(), 4);
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    assert_eq!(m.mesh.normals.unwrap()[2], [0.0, 0.0, 1.0]);
+    assert_eq!((m.report.faces, m.report.polygons), (1, 1));
 }
 
 #[test]
 fn obj_models_are_merged_with_their_normals() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("two.obj");
-    std::fs::write(
-        &path,
+    let m = ok(
+        "two.obj",
         "o a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//1\n\
          o b\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf 4//1 5//1 6//1\n",
+    );
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2], [3, 4, 5]]);
+    assert_eq!(m.mesh.positions.len(), 6);
+    let normals = m.mesh.normals.expect("per-vertex normals");
+    assert!(normals.iter().all(|n| *n == [0.0, 0.0, 1.0]));
+}
+
+#[test]
+fn obj_materials_groups_and_smoothing_are_ignored_even_when_the_mtl_is_missing_or_broken() {
+    let obj = "# Blender\nmtllib missing.mtl\no Cube\ng side\ns 1\nusemtl Material.001\n\
+               v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 0 1\ns off\nf 1/1 2/2 3/3\n";
+    let m = ok("model.obj", obj);
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2]]);
+    // The same with a malformed .mtl beside it.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("missing.mtl"),
+        "newmtl\nKd one two\n\x00\x01",
     )
     .unwrap();
-    let mesh = load_mesh(&path).unwrap();
-    assert_eq!(mesh.triangles.len(), 2);
-    assert_eq!(mesh.positions.len(), 6);
-    let normals = mesh.normals.expect("per-vertex normals");
-    assert!(normals.iter().all(|n| *n == [0.0, 0.0, 1.0]));
-    // The second triangle uses the second model's vertices.
-    let z: Vec<f32> = mesh.triangles[1]
-        .iter()
-        .map(|&k| mesh.positions[k as usize][2])
-        .collect();
-    assert_eq!(z, vec![1.0, 1.0, 1.0]);
+    std::fs::write(dir.path().join("model.obj"), obj).unwrap();
+    let mesh = load_mesh(&dir.path().join("model.obj")).unwrap();
+    assert_eq!(mesh.triangles, vec![[0, 1, 2]]);
+}
+
+#[test]
+fn obj_negative_indices_crlf_bom_and_continuations() {
+    let m = ok(
+        "rel.obj",
+        "\u{feff}v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf -3 -2 -1\r\nv 1 1 0\r\nf 2 \\\r\n 4 3\r\n",
+    );
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2], [1, 3, 2]]);
+    // Relative normal indices too; lines and points are skipped, not refused.
+    let m = ok(
+        "reln.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf -3//-1 -2//-1 -1//-1\nl 1 2\np 3\n",
+    );
+    assert_eq!(m.mesh.normals.unwrap(), vec![[0.0, 0.0, 1.0]; 3]);
+    assert_eq!(m.report.skipped_lines_points, 2);
+}
+
+#[test]
+fn obj_concave_ngons_are_ear_clipped_in_their_plane() {
+    // An L-shaped hexagon (area 3) in the plane x = 1, starting at its reflex corner: a fan
+    // from the first corner would cover the notch. Seen from +x it turns counter-clockwise.
+    let m = ok(
+        "l.obj",
+        "v 1 1 1\nv 1 1 2\nv 1 0 2\nv 1 0 0\nv 1 2 0\nv 1 2 1\nf 1 2 3 4 5 6\n",
+    );
+    assert_eq!(m.mesh.triangles.len(), 4);
+    assert_eq!((m.report.polygons, m.report.concave_polygons), (1, 1));
+    let mut total = 0.0;
+    for t in &m.mesh.triangles {
+        let [a, b, c] = t.map(|k| glam::DVec3::from(m.mesh.positions[k as usize].map(f64::from)));
+        let n = (b - a).cross(c - a);
+        assert!(
+            n.x > 0.0 && n.y == 0.0 && n.z == 0.0,
+            "{t:?} turns the wrong way"
+        );
+        // Every triangle lies inside the L: its centroid is not in the notch y, z in (1, 2).
+        let g = (a + b + c) / 3.0;
+        assert!(!(g.y > 1.0 && g.z > 1.0), "{t:?} covers the notch");
+        total += n.x / 2.0;
+    }
+    assert!((total - 3.0).abs() < 1e-12);
+}
+
+#[test]
+fn obj_vertices_split_where_a_position_has_two_normals() {
+    // A crease: vertices 1 and 2 are shared by two faces with different normals.
+    let m = ok(
+        "crease.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvn 0 0 1\nvn 0 1 0\n\
+         f 1//1 2//1 3//1\nf 1//2 4//2 2//2\n",
+    );
+    assert_eq!(m.mesh.positions.len(), 6);
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2], [4, 3, 5]]);
+    let n = m.mesh.normals.unwrap();
+    assert_eq!(n[4], [0.0, 1.0, 0.0]);
+    assert_eq!(m.mesh.positions[4], [0.0, 0.0, 0.0]);
+    assert_eq!(m.mesh.positions[5], [1.0, 0.0, 0.0]);
+    // Vertex 4 (index 3) is used only with normal 2.
+    assert_eq!(n[3], [0.0, 1.0, 0.0]);
+}
+
+#[test]
+fn one_degenerate_triangle_is_dropped_and_counted() {
+    let m = ok(
+        "flat.obj",
+        "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\nf 2 3 4\n",
+    );
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 3], [1, 2, 3]]);
+    assert_eq!(m.report.degenerate_triangles, 1);
+    assert_eq!(
+        m.report.warning().unwrap(),
+        "dropped 1 degenerate (zero-area) triangle (the first: [0.0, 0.0, 0.0] [1.0, 0.0, 0.0] [2.0, 0.0, 0.0])"
+    );
+    // A mesh of nothing but degenerate triangles is refused.
+    let e = err(
+        "line.ply",
+        format!("{PLY_TRIANGLE_HEADER}0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n").as_bytes(),
+    );
+    assert_eq!(
+        e,
+        "line.ply: the mesh has no triangles: all 1 are degenerate (zero area)"
+    );
+}
+
+#[test]
+fn zero_and_nan_normals_take_the_geometric_normal() {
+    let m = ok(
+        "n.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 0\nvn nan 0 1\nvn 0 0 1\nf 1//1 2//2 3//3\n",
+    );
+    assert_eq!(m.report.repaired_normals, 2);
+    assert_eq!(m.mesh.normals.unwrap(), vec![[0.0, 0.0, 1.0]; 3]);
+    assert_eq!(
+        m.report.warning().unwrap(),
+        "replaced 2 zero or non-finite vertex normals by the geometric normal there"
+    );
+    let m = ok(
+        "n.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+         property float z\nproperty float nx\nproperty float ny\nproperty float nz\nelement face 1\n\
+         property list uchar int vertex_indices\nend_header\n\
+         0 0 0 0 0 0\n0 1 0 0 0 0\n1 0 0 0 0 -1\n3 0 1 2\n",
+    );
+    assert_eq!(m.report.repaired_normals, 2);
+    assert_eq!(m.mesh.normals.unwrap(), vec![[0.0, 0.0, -1.0]; 3]);
+}
+
+#[test]
+fn ply_comments_obj_info_crlf_bom_mixed_faces_and_extra_properties() {
+    let ply = "\u{feff}ply\r\nformat ascii 1.0\r\ncomment made by a scanner\r\nobj_info num_cols 2\r\n\
+         element vertex 5\r\nproperty double x\r\nproperty float confidence\r\nproperty double y\r\n\
+         property double z\r\nproperty uchar red\r\nproperty list uchar float extra\r\n\
+         element face 2\r\nproperty int flags\r\nproperty list ushort uint vertex_index\r\n\
+         property list int short more\r\nelement edge 1\r\nproperty int vertex1\r\nproperty int vertex2\r\n\
+         end_header\r\n\
+         0 0.5 0 0 255 2 1.5 2.5\r\n1 0.5 0 0 255 0\r\n1 0.5 1 0 255 1 3\r\n0 0.5 1 0 255 0\r\n\
+         2 0.5 2 0 255 0\r\n\
+         7 4 0 1 2 3 2 -1 -2\r\n0 3 3 2 4 0\r\n0 1\r\n";
+    let m = ok("mixed.ply", ply);
+    assert_eq!(m.mesh.positions[4], [2.0, 2.0, 0.0]);
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2], [0, 2, 3], [3, 2, 4]]);
+    assert_eq!((m.report.faces, m.report.polygons), (2, 1));
+}
+
+#[test]
+fn broken_obj_files_name_the_line() {
+    let cases: &[(&str, &str)] = &[
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 5\n",
+            "line 4: vertex index 5 is out of range (3 vertices so far)",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n",
+            "line 4: vertex index -4 is out of range (3 vertices so far)",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+            "line 4: vertex index 0 is invalid (OBJ indices start at 1)",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//1\n",
+            "line 4: normal index 1 is out of range (0 normals so far)",
+        ),
+        ("v 0 0 0\nv 1 zero 0\n", "line 2: 'zero' is not a number"),
+        ("v 0 0\n", "line 1: 'v' needs 3 numbers (x y z)"),
+        (
+            "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n",
+            "line 2: vertex 2 is not finite: [NaN, 0.0, 0.0]",
+        ),
+        (
+            "v 0 0 0\nv 1e30 0 0\n",
+            "line 2: vertex 2 is too large (beyond 1e18): [1e30, 0.0, 0.0]",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nf 1 2\n",
+            "line 3: a face needs at least 3 vertices, got 2",
+        ),
+        (
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
+            "line 4: 'x' is not a vertex index",
+        ),
+        (
+            "v 0 0 0\nsolid cube\n",
+            "line 2: unknown OBJ statement 'solid'",
+        ),
+        ("# nothing\n", "the mesh has no triangles"),
+    ];
+    for (obj, message) in cases {
+        assert_eq!(
+            err("m.obj", obj.as_bytes()),
+            format!("m.obj: {message}"),
+            "{obj}"
+        );
+    }
+    let e = load_mesh(std::path::Path::new("/nonexistent/x.obj")).unwrap_err();
+    assert!(
+        e.starts_with("/nonexistent/x.obj: cannot read OBJ: "),
+        "{e}"
+    );
+}
+
+#[test]
+fn broken_ascii_ply_files_name_the_element_and_line() {
+    let h = PLY_TRIANGLE_HEADER;
+    let cases: Vec<(String, &str)> = vec![
+        (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n"), "line 13: face 0 uses vertex 7, but the file has 3 vertices"),
+        (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n"), "line 13: face 0 uses vertex -1, but the file has 3 vertices"),
+        (format!("{h}0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n"), "line 11: vertex 1: 'x' is not a number"),
+        (format!("{h}0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n"), "line 11: vertex 1 is not finite: [NaN, 0.0, 0.0]"),
+        (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n"), "line 13: face 0: '1.5' is not a vertex index"),
+        (format!("{h}0 0 0\n1 0 0\n0 1 0\n2 0 1\n"), "line 13: face 0 has 2 vertices"),
+        (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1\n"), "the file ends in face 0 of 1: truncated, or the header's counts do not match the data"),
+        (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n"), "line 14: '3' after the last element: the header's counts do not match the data"),
+        (format!("{h}0 0 0\n1 0 0\n"), "the header declares 3 vertex, 1 face: at least 19 bytes of ascii data, but the file has 12 bytes after its header"),
+        ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nend_header\n".into(), "cannot parse PLY: the vertex element has no 'z'"),
+        (h.replace("element face 1\nproperty list uchar int vertex_indices\n", ""), "PLY file has no 'face' element"),
+        (h.replace("list uchar int", "list uchar float"), "cannot parse PLY: face property 'vertex_indices' must be a list of integers, got a list of float"),
+        (h.replace("property float z", "property quad z"), "cannot parse PLY: header line 6: unknown property type 'quad'"),
+        (h.replace("end_header\n", ""), "cannot parse PLY: header line 9: the header has no end_header line"),
+        ("this is not a ply file\n".into(), "cannot parse PLY: header line 1: not a PLY file (the first line is not 'ply')"),
+    ];
+    for (ply, message) in &cases {
+        assert_eq!(
+            err("m.ply", ply.as_bytes()),
+            format!("m.ply: {message}"),
+            "{ply}"
+        );
+    }
+}
+
+#[test]
+fn the_command_line_warns_once_counts_repairs_and_info_describes_files() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    // Two degenerate triangles and a zero normal in a fine quad.
+    std::fs::write(
+        dir.path().join("quad.obj"),
+        "mtllib gone.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nv 0 0 0\nvn 0 1 0\nvn 0 0 0\n\
+         f 1//1 2//1 3//1 4//2\nf 1//1 2//1 1//1\nf 5//1 5//1 5//1\n",
+    )
+    .unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        "[camera]\neye = [0.0, 2.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\nup = [0.0, 1.0, 0.0]\n\
+         fov_y = 40.0\nwidth = 16\nheight = 12\n\
+         [materials.white]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.0, 4.0, 0.0]\nintensity = [10.0, 10.0, 10.0]\n\
+         [[shapes]]\ntype = \"mesh\"\nfile = \"quad.obj\"\nmaterial = \"white\"\n",
+    )
+    .unwrap();
+    let stats = dir.path().join("stats.json");
+    let out = Command::new(exe)
+        .args([
+            "render",
+            "--quiet",
+            "--photons",
+            "100",
+            "--caustic-photons",
+            "10",
+            "-o",
+        ])
+        .arg(dir.path().join("img.exr"))
+        .arg("--stats-json")
+        .arg(&stats)
+        .arg(&scene)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert_eq!(
+        stderr.trim(),
+        format!(
+            "photondiff: warning: {}: shapes[0] (mesh quad.obj): dropped 2 degenerate \
+             (zero-area) triangles (the first: [-1.0, 0.0, 1.0] [1.0, 0.0, 1.0] [-1.0, 0.0, 1.0]); \
+             replaced 1 zero or non-finite vertex normal by the geometric normal there",
+            scene.display()
+        )
+    );
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    assert_eq!(json["mesh_repairs"]["degenerate_triangles"], 2);
+    assert_eq!(json["mesh_repairs"]["repaired_normals"], 1);
+
+    let out = Command::new(exe).arg("info").arg(&scene).output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    for line in [
+        "shapes[0] (mesh quad.obj):",
+        "  vertices   5",
+        "  triangles  2 (from 3 faces; 1 polygons triangulated, 0 of them concave)",
+        "  bounds     [-1, 0, -1] .. [1, 0, 1] (size 2 x 0 x 2)",
+        "  dropped    2 degenerate (zero-area) triangles",
+        "  repaired   1 zero or non-finite vertex normals",
+        // 12 bytes x (5 positions + 5 normals + 2 triangles) = 144 bytes.
+        "  memory     144 bytes (0.0 MiB) of mesh buffers",
+    ] {
+        assert!(
+            text.lines().any(|l| l.starts_with(line)),
+            "no '{line}' in\n{text}"
+        );
+    }
+    let out = Command::new(exe)
+        .arg("info")
+        .arg(dir.path().join("quad.obj"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("  triangles  2 (from 3 faces"), "{text}");
+    let out = Command::new(exe)
+        .arg("info")
+        .arg(dir.path().join("none.ply"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).starts_with("photondiff: error: "));
 }

@@ -101,13 +101,17 @@ fn missing_and_unreadable_mesh_files() {
 }
 
 #[test]
-fn malformed_meshes_name_the_triangle() {
-    let obj = "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 0 1 0\nf 1 2 4\nf 1 2 3\n";
+fn malformed_meshes_name_the_element_and_line() {
+    // One degenerate triangle is dropped (tests/mesh_files.rs); a mesh of nothing else is refused.
+    let obj = "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
     let e = error_of(
         &with_shape("type = \"mesh\"\nfile = \"flat.obj\"\nmaterial = \"white\""),
         &[("flat.obj", obj)],
     );
-    assert_eq!(e, "shapes[0].file: flat.obj: triangle 1 is degenerate (zero area): [0.0, 0.0, 0.0] [1.0, 0.0, 0.0] [2.0, 0.0, 0.0]");
+    assert_eq!(
+        e,
+        "shapes[0].file: flat.obj: the mesh has no triangles: all 1 are degenerate (zero area)"
+    );
     let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
                property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
                0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n";
@@ -117,7 +121,7 @@ fn malformed_meshes_name_the_triangle() {
     );
     assert_eq!(
         e,
-        "shapes[0].file: tri.ply: triangle 0 uses vertex 7, but the mesh has 3 vertices"
+        "shapes[0].file: tri.ply: line 13: face 0 uses vertex 7, but the file has 3 vertices"
     );
     let e = error_of(
         &with_shape("type = \"mesh\"\nfile = \"nan.obj\"\nmaterial = \"white\""),
@@ -125,7 +129,7 @@ fn malformed_meshes_name_the_triangle() {
     );
     assert_eq!(
         e,
-        "shapes[0].file: nan.obj: vertex 1 is not finite: [NaN, 0.0, 0.0]"
+        "shapes[0].file: nan.obj: line 2: vertex 2 is not finite: [NaN, 0.0, 0.0]"
     );
 }
 

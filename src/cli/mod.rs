@@ -1,6 +1,7 @@
 //! The subcommands of the command line, one file each, and what they share.
 
 pub mod compare;
+pub mod info;
 pub mod merge;
 pub mod photons;
 pub mod reference;

@@ -136,6 +136,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         }
         None => None,
     };
+    // Once per mesh, whatever --quiet says: the scene is not quite what its files say.
+    for warning in scene.warnings() {
+        eprintln!("photondiff: warning: {}: {warning}", args.scene.display());
+    }
+    stats.mesh_repairs = scene.mesh_report();
     let device = Device::new().map_err(|e| e.to_string())?;
     let embree = stats
         .time("build BVH", || scene.build_embree(&device))

@@ -4,6 +4,7 @@ use crate::estimate::GatherCounts;
 use crate::photons::footprint::Guards;
 use crate::photons::map::PathClass;
 use crate::render::passes::PassReport;
+use crate::scene::mesh_file::MeshReport;
 use serde::Serialize;
 use std::time::Instant;
 
@@ -69,6 +70,8 @@ pub struct Stats {
     /// Progressive passes: how many, why they stopped, the noise estimate (absent for the
     /// light tracer).
     pub progressive: Option<PassReport>,
+    /// What loading the scene's mesh files dropped or repaired, over all meshes.
+    pub mesh_repairs: MeshReport,
 }
 
 /// How one photon map was made.
@@ -153,6 +156,9 @@ impl Stats {
         }
         if !self.embree.is_empty() {
             out += &format!("  ray queries: {}\n", self.embree);
+        }
+        if let Some(w) = self.mesh_repairs.warning() {
+            out += &format!("  meshes: {w}\n");
         }
         let render = self.seconds("render");
         let r = &self.rays;

@@ -4,7 +4,7 @@
 //! panics on bad input.
 
 use crate::scene::camera::Camera;
-use crate::scene::mesh_file::load_mesh;
+use crate::scene::mesh_file::{load_mesh_with_report, MeshReport};
 use crate::scene::shapes;
 use crate::scene::{Light, Material, Scene, SceneMesh};
 use glam::DVec3;
@@ -225,11 +225,15 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
     let mut meshes = Vec::new();
     for (i, shape) in file.shapes.iter().enumerate() {
         let field = format!("shapes[{i}]");
+        let mut report = MeshReport::default();
         let (kind, mesh, material) = match shape {
             ShapeDesc::Mesh { file, material: m } => {
                 let path = base.join(file);
-                let mesh = load_mesh(&path).map_err(|e| format!("{field}.file: {e}"))?;
-                ("mesh", mesh, material(&field, m)?)
+                let loaded =
+                    load_mesh_with_report(&path).map_err(|e| format!("{field}.file: {e}"))?;
+                report = loaded.report;
+                let kind = format!("mesh {}", file.display());
+                (kind, loaded.mesh, material(&field, m)?)
             }
             ShapeDesc::Quad {
                 corner,
@@ -238,7 +242,8 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 material: m,
             } => {
                 let [c, u, v] = parallelogram(&field, *corner, *edge_u, *edge_v)?;
-                ("quad", shapes::quad(c, u, v), material(&field, m)?)
+                let mesh = shapes::quad(c, u, v);
+                ("quad".to_string(), mesh, material(&field, m)?)
             }
             ShapeDesc::Sphere {
                 center,
@@ -258,7 +263,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                     ));
                 }
                 let mesh = shapes::sphere(center, radius, segments);
-                ("sphere", mesh, material(&field, m)?)
+                ("sphere".to_string(), mesh, material(&field, m)?)
             }
         };
         mesh.validate()
@@ -267,6 +272,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
             name: format!("{field} ({kind})"),
             mesh,
             material,
+            report,
         });
     }
 
@@ -326,6 +332,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                     name: format!("{field} (quad light)"),
                     mesh: shapes::quad(c, u, v),
                     material: Material::Emitter { radiance },
+                    report: MeshReport::default(),
                 });
                 Light::Quad {
                     corner: c,

@@ -11,6 +11,7 @@ pub mod shapes;
 use crate::embree::{self, Device, EmbreeError, TriangleMesh};
 use camera::Camera;
 use glam::DVec3;
+use mesh_file::MeshReport;
 
 /// A surface's scattering.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -115,12 +116,15 @@ impl Light {
 /// A mesh of the scene and the material of all its triangles.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneMesh {
-    /// What the mesh came from, for messages ("`shapes[2]` (sphere)").
+    /// What the mesh came from, for messages ("`shapes[2]` (sphere)", "`shapes[0]` (mesh
+    /// bunny.ply)").
     pub name: String,
     /// The triangles.
     pub mesh: TriangleMesh,
     /// Its material.
     pub material: Material,
+    /// What loading its file dropped or repaired (all zero for shapes made in the scene file).
+    pub report: MeshReport,
 }
 
 /// A complete scene.
@@ -144,6 +148,23 @@ impl Scene {
                 .map_err(|e| EmbreeError::InvalidMesh(format!("{}: {e}", mesh.name)))?;
         }
         builder.commit()
+    }
+
+    /// What loading the scene's mesh files dropped or repaired, summed over the meshes.
+    pub fn mesh_report(&self) -> MeshReport {
+        let mut total = MeshReport::default();
+        for m in &self.meshes {
+            total.add(&m.report);
+        }
+        total
+    }
+
+    /// One warning per mesh file that had elements dropped or repaired, naming the mesh.
+    pub fn warnings(&self) -> Vec<String> {
+        self.meshes
+            .iter()
+            .filter_map(|m| Some(format!("{}: {}", m.name, m.report.warning()?)))
+            .collect()
     }
 
     /// The material of Embree geometry `geom_id`.

@@ -1,0 +1,152 @@
+//! `photondiff info FILE`: what a mesh or scene file holds, what loading it dropped or
+//! repaired, and the memory its meshes take.
+
+use photondiff::embree::TriangleMesh;
+use photondiff::scene::file::load_scene;
+use photondiff::scene::mesh_file::{load_mesh_with_report, mesh_bytes, MeshReport};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct InfoArgs {
+    /// A mesh (.obj, .ply) or a scene file (.toml).
+    file: PathBuf,
+}
+
+/// Runs `photondiff info`.
+pub fn run(args: &InfoArgs) -> Result<(), String> {
+    let is_scene = args
+        .file
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    let mut out = String::new();
+    if is_scene {
+        let scene = load_scene(&args.file).map_err(|e| e.to_string())?;
+        let c = &scene.camera;
+        out += &format!(
+            "{}: scene, {} x {} pixels, {} light{}, {} mesh{}\n",
+            args.file.display(),
+            c.width,
+            c.height,
+            scene.lights.len(),
+            if scene.lights.len() == 1 { "" } else { "s" },
+            scene.meshes.len(),
+            if scene.meshes.len() == 1 { "" } else { "es" },
+        );
+        for m in &scene.meshes {
+            out += &format!("{}:\n", m.name);
+            out += &describe(&m.mesh, &m.report);
+        }
+        let mut all = TriangleMesh::default();
+        let mut bytes = 0;
+        for m in &scene.meshes {
+            // Only the bounds and counts of the union are wanted: no copy of the buffers.
+            all.positions.extend(bounds(&m.mesh));
+            bytes += mesh_bytes(&m.mesh);
+        }
+        let triangles: usize = scene.meshes.iter().map(|m| m.mesh.triangles.len()).sum();
+        out += &format!(
+            "total:\n  triangles  {triangles}\n  bounds     {}\n  dropped    {}\n  repaired   {}\n  memory     {}\n",
+            show_bounds(&all),
+            dropped(&scene.mesh_report()),
+            repaired(&scene.mesh_report()),
+            memory(bytes),
+        );
+    } else {
+        let loaded = load_mesh_with_report(&args.file)?;
+        out += &format!("{}: mesh\n", args.file.display());
+        out += &describe(&loaded.mesh, &loaded.report);
+    }
+    out += MEMORY_NOTE;
+    print!("{out}");
+    Ok(())
+}
+
+fn describe(mesh: &TriangleMesh, report: &MeshReport) -> String {
+    let mut s = format!(
+        "  vertices   {}\n  triangles  {}",
+        mesh.positions.len(),
+        mesh.triangles.len()
+    );
+    if report.faces > 0 {
+        s += &format!(
+            " (from {} faces; {} polygons triangulated, {} of them concave)",
+            report.faces, report.polygons, report.concave_polygons
+        );
+    }
+    s += &format!(
+        "\n  normals    {}\n  bounds     {}\n  dropped    {}\n  repaired   {}\n",
+        if mesh.normals.is_some() {
+            "per vertex (interpolated)"
+        } else {
+            "none (flat)"
+        },
+        show_bounds(mesh),
+        dropped(report),
+        repaired(report),
+    );
+    if report.skipped_lines_points > 0 {
+        s += &format!(
+            "  skipped    {} lines and points (not surfaces)\n",
+            report.skipped_lines_points
+        );
+    }
+    s += &format!("  memory     {}\n", memory(mesh_bytes(mesh)));
+    s
+}
+
+fn dropped(r: &MeshReport) -> String {
+    format!(
+        "{} degenerate (zero-area) triangles",
+        r.degenerate_triangles
+    )
+}
+
+fn repaired(r: &MeshReport) -> String {
+    format!("{} zero or non-finite vertex normals", r.repaired_normals)
+}
+
+fn memory(bytes: u64) -> String {
+    format!(
+        "{bytes} bytes ({:.1} MiB) of mesh buffers",
+        bytes as f64 / (1u64 << 20) as f64
+    )
+}
+
+/// How `memory` is estimated, printed once after the figures.
+const MEMORY_NOTE: &str = "memory: 12 bytes per position, per normal and per triangle (three \
+    32-bit indices); rendering adds Embree's copy of positions and indices, and its BVH\n";
+
+/// The two corners of the mesh's bounding box (none for an empty mesh).
+fn bounds(mesh: &TriangleMesh) -> Vec<[f32; 3]> {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in &mesh.positions {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    if mesh.positions.is_empty() {
+        Vec::new()
+    } else {
+        vec![lo, hi]
+    }
+}
+
+fn show_bounds(mesh: &TriangleMesh) -> String {
+    match bounds(mesh).as_slice() {
+        [lo, hi] => format!(
+            "[{}, {}, {}] .. [{}, {}, {}] (size {} x {} x {})",
+            lo[0],
+            lo[1],
+            lo[2],
+            hi[0],
+            hi[1],
+            hi[2],
+            hi[0] - lo[0],
+            hi[1] - lo[1],
+            hi[2] - lo[2]
+        ),
+        _ => "empty".to_string(),
+    }
+}

@@ -1,0 +1,133 @@
+//! Mesh files as modelling tools write them: Wavefront OBJ ([`obj`]) and PLY, ASCII or binary
+//! ([`ply`]), streamed from disk straight into the final vertex and index buffers.
+//!
+//! What every tool opens is accepted, and repaired where the renderer needs it ([`repair`]):
+//! degenerate triangles are dropped and zero or non-finite vertex normals replaced, each counted
+//! in a [`MeshReport`] (the command line warns once per mesh). Truly broken files (indices out of
+//! range, truncated data, non-numbers, non-finite positions) are errors naming the file and the
+//! element or line; a header that lies about its counts is refused before anything big is
+//! allocated.
+
+pub mod obj;
+pub mod ply;
+pub mod repair;
+pub mod triangulate;
+
+use crate::embree::TriangleMesh;
+use serde::Serialize;
+use std::path::Path;
+
+/// What loading a mesh file had to do besides reading it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct MeshReport {
+    /// Faces in the file (before triangulation).
+    pub faces: u64,
+    /// Faces with more than three vertices, triangulated (in their own plane).
+    pub polygons: u64,
+    /// Of those, the concave ones (triangulated by ear clipping rather than as a fan).
+    pub concave_polygons: u64,
+    /// Zero-area (or non-finite-area) triangles dropped.
+    pub degenerate_triangles: u64,
+    /// The vertices of the first dropped triangle, for the warning.
+    pub first_degenerate: Option<[[f32; 3]; 3]>,
+    /// Zero or non-finite vertex normals replaced by the geometric normal around the vertex.
+    pub repaired_normals: u64,
+    /// Lines and points (OBJ `l`/`p`) skipped: they are not surfaces.
+    pub skipped_lines_points: u64,
+}
+
+impl MeshReport {
+    /// One line saying what was dropped or repaired, or `None` when nothing was.
+    pub fn warning(&self) -> Option<String> {
+        let mut parts = Vec::new();
+        if self.degenerate_triangles > 0 {
+            let mut s = format!(
+                "dropped {} degenerate (zero-area) triangle{}",
+                self.degenerate_triangles,
+                plural(self.degenerate_triangles)
+            );
+            if let Some([a, b, c]) = self.first_degenerate {
+                s += &format!(" (the first: {a:?} {b:?} {c:?})");
+            }
+            parts.push(s);
+        }
+        if self.repaired_normals > 0 {
+            parts.push(format!(
+                "replaced {} zero or non-finite vertex normal{} by the geometric normal there",
+                self.repaired_normals,
+                plural(self.repaired_normals)
+            ));
+        }
+        (!parts.is_empty()).then(|| parts.join("; "))
+    }
+
+    /// Adds `other`'s counts into `self` (keeping the first degenerate triangle seen).
+    pub fn add(&mut self, other: &MeshReport) {
+        self.faces += other.faces;
+        self.polygons += other.polygons;
+        self.concave_polygons += other.concave_polygons;
+        self.degenerate_triangles += other.degenerate_triangles;
+        self.first_degenerate = self.first_degenerate.or(other.first_degenerate);
+        self.repaired_normals += other.repaired_normals;
+        self.skipped_lines_points += other.skipped_lines_points;
+    }
+}
+
+fn plural(n: u64) -> &'static str {
+    if n == 1 {
+        ""
+    } else {
+        "s"
+    }
+}
+
+/// A mesh read from a file, with what reading it had to repair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoadedMesh {
+    /// The triangles, valid for Embree.
+    pub mesh: TriangleMesh,
+    /// What was dropped or repaired.
+    pub report: MeshReport,
+}
+
+/// Bytes the mesh's buffers take: 12 per position, 12 per normal, 12 per triangle (the
+/// capacity actually reserved, which the loaders keep equal to the length).
+pub fn mesh_bytes(mesh: &TriangleMesh) -> u64 {
+    let normals = mesh.normals.as_ref().map_or(0, |n| n.capacity());
+    12 * (mesh.positions.capacity() + normals + mesh.triangles.capacity()) as u64
+}
+
+/// Loads the mesh in `path`, choosing the format by extension (`.obj` or `.ply`).
+/// Errors are messages that name the file.
+pub fn load_mesh(path: &Path) -> Result<TriangleMesh, String> {
+    load_mesh_with_report(path).map(|m| m.mesh)
+}
+
+/// Loads the mesh in `path` and reports what was dropped or repaired.
+pub fn load_mesh_with_report(path: &Path) -> Result<LoadedMesh, String> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let in_file = |e: String| format!("{}: {e}", path.display());
+    let (mut mesh, mut report) = match ext.as_deref() {
+        Some("obj") => obj::load(path),
+        Some("ply") => ply::load(path),
+        _ => Err("unsupported mesh format (expected a .obj or .ply file)".to_string()),
+    }
+    .map_err(in_file)?;
+    repair::repair(&mut mesh, &mut report).map_err(in_file)?;
+    if mesh.triangles.is_empty() {
+        return Err(in_file(if report.degenerate_triangles > 0 {
+            format!(
+                "the mesh has no triangles: all {} are degenerate (zero area)",
+                report.degenerate_triangles
+            )
+        } else {
+            "the mesh has no triangles".to_string()
+        }));
+    }
+    // The loaders and the repair make every mesh valid; Embree's own check stays the last word.
+    mesh.validate().map_err(in_file)?;
+    Ok(LoadedMesh { mesh, report })
+}

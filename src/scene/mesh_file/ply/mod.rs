@@ -1,0 +1,274 @@
+//! PLY, ASCII or binary (little or big endian), read straight into the final vertex and index
+//! buffers: the header's counts are checked against the file's size before anything is
+//! allocated, vertices are decoded chunk by chunk into a buffer reserved once, and faces
+//! (triangles, quads, any polygon, any integer index and count type) are appended without an
+//! allocation per face. Extra properties of any type, and extra elements, are skipped.
+
+mod ascii;
+mod binary;
+pub mod header;
+pub mod write;
+
+use super::repair::bad_position;
+use super::triangulate::{triangulate, Scratch, Shape};
+use super::MeshReport;
+use crate::embree::TriangleMesh;
+use header::{Element, Format, Header};
+use std::path::Path;
+
+/// Loads the PLY file at `path`.
+pub fn load(path: &Path) -> Result<(TriangleMesh, MeshReport), String> {
+    let file = std::fs::File::open(path).map_err(|e| format!("cannot read PLY: {e}"))?;
+    let file_size = file
+        .metadata()
+        .map_err(|e| format!("cannot read PLY: {e}"))?
+        .len();
+    let mut reader = std::io::BufReader::with_capacity(1 << 16, file);
+    let header = header::read(&mut reader)?;
+    let data_size = file_size.saturating_sub(header.length);
+    let layout = Layout::new(&header)?;
+    check_size(&header, data_size)?;
+    let vertices = header.elements[layout.vertex].count;
+    if vertices >= u32::MAX as u64 {
+        return Err(format!("too many vertices ({vertices}) for 32-bit indices"));
+    }
+    let mut sink = Sink::new(&header, &layout);
+    match header.format {
+        Format::Ascii => ascii::read(reader, &header, &layout, &mut sink)?,
+        Format::BinaryLittleEndian => {
+            binary::read::<false, _>(reader, data_size, &header, &layout, &mut sink)?
+        }
+        Format::BinaryBigEndian => {
+            binary::read::<true, _>(reader, data_size, &header, &layout, &mut sink)?
+        }
+    }
+    sink.finish()
+}
+
+/// Where the data the renderer uses sits in the elements.
+pub(crate) struct Layout {
+    /// Index of the `vertex` element.
+    pub vertex: usize,
+    /// Properties `x`, `y`, `z` of the vertex element.
+    pub xyz: [usize; 3],
+    /// Properties `nx`, `ny`, `nz`, when all three are there.
+    pub normal: Option<[usize; 3]>,
+    /// Index of the `face` element.
+    pub face: usize,
+    /// The index-list property of the face element.
+    pub indices: usize,
+}
+
+impl Layout {
+    fn new(header: &Header) -> Result<Layout, String> {
+        let element = |name: &str| {
+            header
+                .elements
+                .iter()
+                .position(|e| e.name == name)
+                .ok_or_else(|| format!("PLY file has no '{name}' element"))
+        };
+        let vertex = element("vertex")?;
+        let v = &header.elements[vertex];
+        let scalar = |name: &str| -> Result<Option<usize>, String> {
+            match v.find(name) {
+                Some(i) if v.properties[i].list.is_some() => Err(format!(
+                    "cannot parse PLY: vertex property '{name}' is a list, not a number"
+                )),
+                found => Ok(found),
+            }
+        };
+        let mut xyz = [0; 3];
+        for (slot, name) in xyz.iter_mut().zip(["x", "y", "z"]) {
+            *slot = scalar(name)?
+                .ok_or_else(|| format!("cannot parse PLY: the vertex element has no '{name}'"))?;
+        }
+        let normal = match [scalar("nx")?, scalar("ny")?, scalar("nz")?] {
+            [Some(a), Some(b), Some(c)] => Some([a, b, c]),
+            _ => None,
+        };
+        let face = element("face")?;
+        let f = &header.elements[face];
+        let indices = f
+            .find("vertex_indices")
+            .or_else(|| f.find("vertex_index"))
+            .ok_or("cannot parse PLY: the face element has no 'vertex_indices' list")?;
+        let p = &f.properties[indices];
+        if p.list.is_none() || !p.ty.is_integer() {
+            return Err(format!(
+                "cannot parse PLY: face property '{}' must be a list of integers, got {}",
+                p.name,
+                match p.list {
+                    Some(_) => format!("a list of {}", p.ty.name()),
+                    None => format!("a single {}", p.ty.name()),
+                }
+            ));
+        }
+        Ok(Layout {
+            vertex,
+            xyz,
+            normal,
+            face,
+            indices,
+        })
+    }
+}
+
+/// Refuses a header whose counts cannot fit in the file, before anything is allocated for
+/// them: in a binary file each record takes at least its scalars and list counts, in an ASCII
+/// file at least two characters (a digit and a separator) per value.
+fn check_size(header: &Header, data_size: u64) -> Result<(), String> {
+    let per_record = |e: &Element| -> u128 {
+        match header.format {
+            Format::Ascii => 2 * e.properties.len() as u128,
+            _ => e.min_binary_size() as u128,
+        }
+    };
+    let needed: u128 = header
+        .elements
+        .iter()
+        .map(|e| e.count as u128 * per_record(e))
+        .sum();
+    // The last ASCII value needs no separator after it.
+    let needed = if header.format == Format::Ascii {
+        needed.saturating_sub(1)
+    } else {
+        needed
+    };
+    if needed > data_size as u128 {
+        let counts: Vec<String> = header
+            .elements
+            .iter()
+            .map(|e| format!("{} {}", e.count, e.name))
+            .collect();
+        return Err(format!(
+            "the header declares {}: at least {needed} bytes of {} data, but the file has \
+             {data_size} bytes after its header",
+            counts.join(", "),
+            if header.format == Format::Ascii {
+                "ascii"
+            } else {
+                "binary"
+            }
+        ));
+    }
+    Ok(())
+}
+
+/// Receives vertices and faces as the readers decode them, into the final buffers.
+pub(crate) struct Sink {
+    positions: Vec<[f32; 3]>,
+    normals: Option<Vec<[f32; 3]>>,
+    triangles: Vec<[u32; 3]>,
+    /// Declared vertex count: every index is checked against it.
+    vertex_count: u64,
+    /// Polygons met before the vertices (flat: count, then corners), triangulated at the end.
+    deferred: Vec<u32>,
+    /// Corners of the current polygon.
+    pub corners: Vec<u32>,
+    scratch: Scratch,
+    report: MeshReport,
+}
+
+impl Sink {
+    fn new(header: &Header, layout: &Layout) -> Sink {
+        // Both counts were checked against the file's size: reserving them is safe.
+        let vertices = header.elements[layout.vertex].count as usize;
+        Sink {
+            positions: Vec::with_capacity(vertices),
+            normals: layout.normal.map(|_| Vec::with_capacity(vertices)),
+            triangles: Vec::with_capacity(header.elements[layout.face].count as usize),
+            vertex_count: vertices as u64,
+            deferred: Vec::new(),
+            corners: Vec::new(),
+            scratch: Scratch::default(),
+            report: MeshReport::default(),
+        }
+    }
+
+    /// Adds vertex `i` (in file order).
+    #[inline]
+    pub fn vertex(&mut self, i: u64, p: [f32; 3], n: Option<[f32; 3]>) -> Result<(), String> {
+        if let Some(why) = bad_position(&p) {
+            return Err(format!("vertex {i} {why}"));
+        }
+        self.positions.push(p);
+        if let (Some(normals), Some(n)) = (&mut self.normals, n) {
+            normals.push(n);
+        }
+        Ok(())
+    }
+
+    /// Checks vertex index `k` of face `face`.
+    #[inline]
+    pub fn index(&self, face: u64, k: i64) -> Result<u32, String> {
+        if k < 0 || k as u64 >= self.vertex_count {
+            return Err(format!(
+                "face {face} uses vertex {k}, but the file has {} vertices",
+                self.vertex_count
+            ));
+        }
+        Ok(k as u32)
+    }
+
+    /// Adds a triangle of checked indices.
+    #[inline]
+    pub fn triangle(&mut self, t: [u32; 3]) {
+        self.report.faces += 1;
+        self.triangles.push(t);
+    }
+
+    /// Adds the polygon in `self.corners` (checked indices): a triangle, or an n-gon
+    /// triangulated in its plane. Fewer than three corners is an error.
+    pub fn polygon(&mut self, face: u64) -> Result<(), String> {
+        let n = self.corners.len();
+        if n < 3 {
+            return Err(format!("face {face} has {n} vertices"));
+        }
+        self.report.faces += 1;
+        if n == 3 {
+            self.triangles
+                .push([self.corners[0], self.corners[1], self.corners[2]]);
+            return Ok(());
+        }
+        self.report.polygons += 1;
+        if (self.positions.len() as u64) < self.vertex_count {
+            // The faces come first in this file: triangulate once the vertices are known.
+            self.deferred.push(n as u32);
+            self.deferred.extend_from_slice(&self.corners);
+            return Ok(());
+        }
+        let corners = std::mem::take(&mut self.corners);
+        self.add_polygon(&corners);
+        self.corners = corners;
+        Ok(())
+    }
+
+    fn add_polygon(&mut self, corners: &[u32]) {
+        let (positions, triangles) = (&self.positions, &mut self.triangles);
+        let shape = triangulate(
+            corners.len(),
+            |i| positions[corners[i] as usize],
+            &mut self.scratch,
+            |t| triangles.push(t.map(|i| corners[i])),
+        );
+        self.report.concave_polygons += (shape == Shape::Concave) as u64;
+    }
+
+    fn finish(mut self) -> Result<(TriangleMesh, MeshReport), String> {
+        let deferred = std::mem::take(&mut self.deferred);
+        let mut rest = &deferred[..];
+        while let Some((&n, tail)) = rest.split_first() {
+            let (corners, tail) = tail.split_at(n as usize);
+            self.add_polygon(corners);
+            rest = tail;
+        }
+        self.triangles.shrink_to_fit();
+        let mesh = TriangleMesh {
+            positions: self.positions,
+            normals: self.normals,
+            triangles: self.triangles,
+        };
+        Ok((mesh, self.report))
+    }
+}

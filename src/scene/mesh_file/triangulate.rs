@@ -1,0 +1,217 @@
+//! Polygons to triangles: a fan when the polygon is convex, ear clipping in the polygon's own
+//! plane when it is not (a fan would cover area outside a concave polygon). Triangles keep the
+//! polygon's winding.
+
+use glam::{DVec2, DVec3};
+
+/// Polygons with more vertices than this are fanned even when concave: ear clipping is
+/// quadratic in the vertex count.
+pub const MAX_EAR_CLIPPED: usize = 4096;
+
+/// What triangulating one polygon found.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Shape {
+    /// A triangle, or a convex polygon (fanned from its first vertex).
+    Convex,
+    /// A concave polygon, ear-clipped.
+    Concave,
+}
+
+/// Triangulates the polygon of `n` corners whose positions `point(i)` gives, in order, calling
+/// `emit` with each triangle's corner numbers (`0..n`). `scratch` is reused between calls so
+/// that no polygon allocates.
+pub fn triangulate(
+    n: usize,
+    point: impl Fn(usize) -> [f32; 3],
+    scratch: &mut Scratch,
+    mut emit: impl FnMut([usize; 3]),
+) -> Shape {
+    if n == 3 {
+        emit([0, 1, 2]);
+        return Shape::Convex;
+    }
+    let at = |i: usize| DVec3::from(point(i).map(f64::from));
+    // Newell's normal: robust for non-planar and for polygons with collinear corners.
+    let mut normal = DVec3::ZERO;
+    for i in 0..n {
+        let (a, b) = (at(i), at((i + 1) % n));
+        normal += DVec3::new(
+            (a.y - b.y) * (a.z + b.z),
+            (a.z - b.z) * (a.x + b.x),
+            (a.x - b.x) * (a.y + b.y),
+        );
+    }
+    // Project along the normal's largest component, oriented so the polygon turns
+    // counter-clockwise in 2D.
+    let a = normal.abs();
+    let axis = if a.x >= a.y && a.x >= a.z {
+        0
+    } else if a.y >= a.z {
+        1
+    } else {
+        2
+    };
+    let (u, v) = match axis {
+        0 => (1, 2),
+        1 => (2, 0),
+        _ => (0, 1),
+    };
+    let flip = normal[axis] < 0.0;
+    scratch.points.clear();
+    scratch.points.extend((0..n).map(|i| {
+        let p = at(i);
+        DVec2::new(p[u], if flip { -p[v] } else { p[v] })
+    }));
+    let pts = &scratch.points;
+    let turn = |i: usize| {
+        let (a, b, c) = (pts[(i + n - 1) % n], pts[i], pts[(i + 1) % n]);
+        (b - a).perp_dot(c - b)
+    };
+    let convex = normal != DVec3::ZERO && (0..n).all(|i| turn(i) >= 0.0);
+    if convex || n > MAX_EAR_CLIPPED {
+        for i in 1..n - 1 {
+            emit([0, i, i + 1]);
+        }
+        return Shape::Convex;
+    }
+    ear_clip(scratch, &mut emit);
+    Shape::Concave
+}
+
+/// Buffers reused across polygons.
+#[derive(Debug, Default)]
+pub struct Scratch {
+    points: Vec<DVec2>,
+    ring: Vec<usize>,
+}
+
+/// Ear clipping over `scratch.points` (counter-clockwise): clips a convex corner whose
+/// triangle holds no other remaining corner, until three are left. Collinear corners are
+/// clipped without a triangle (it would have zero area). A polygon with no ear (it crosses
+/// itself) is fanned from what remains.
+fn ear_clip(scratch: &mut Scratch, emit: &mut impl FnMut([usize; 3])) {
+    let Scratch { points, ring } = scratch;
+    ring.clear();
+    ring.extend(0..points.len());
+    let cross = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - b);
+    let mut i = 0;
+    let mut since_last_clip = 0;
+    while ring.len() > 3 {
+        let m = ring.len();
+        let (ip, inext) = ((i + m - 1) % m, (i + 1) % m);
+        let (a, b, c) = (points[ring[ip]], points[ring[i]], points[ring[inext]]);
+        let turn = cross(a, b, c);
+        let scale = (b - a).length_squared().max((c - b).length_squared());
+        let is_ear = if turn.abs() <= 1e-12 * scale {
+            true // collinear: removing it changes nothing
+        } else {
+            turn > 0.0
+                && !ring.iter().any(|&k| {
+                    let p = points[k];
+                    k != ring[ip]
+                        && k != ring[i]
+                        && k != ring[inext]
+                        && cross(a, b, p) >= 0.0
+                        && cross(b, c, p) >= 0.0
+                        && cross(c, a, p) >= 0.0
+                })
+        };
+        if is_ear {
+            if turn.abs() > 1e-12 * scale {
+                emit([ring[ip], ring[i], ring[inext]]);
+            }
+            ring.remove(i);
+            // The corner before the clipped one changed: look at it next.
+            i = (i + ring.len() - 1) % ring.len();
+            since_last_clip = 0;
+        } else {
+            i = (i + 1) % m;
+            since_last_clip += 1;
+            if since_last_clip > m {
+                break; // no ear: a self-intersecting polygon
+            }
+        }
+    }
+    for w in ring[1..].windows(2) {
+        emit([ring[0], w[0], w[1]]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(order: &[u32], p: &[[f32; 3]]) -> (Shape, Vec<[u32; 3]>) {
+        let mut out = Vec::new();
+        let shape = triangulate(
+            order.len(),
+            |i| p[order[i] as usize],
+            &mut Scratch::default(),
+            |t| out.push(t.map(|i| order[i])),
+        );
+        (shape, out)
+    }
+
+    fn area(tris: &[[u32; 3]], p: &[[f32; 3]]) -> f64 {
+        tris.iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|k| DVec3::from(p[k as usize].map(f64::from)));
+                (b - a).cross(c - a).z / 2.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn convex_quad_is_a_fan() {
+        let p = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ];
+        let (s, out) = run(&[0, 1, 2, 3], &p);
+        assert_eq!(s, Shape::Convex);
+        assert_eq!(out, vec![[0, 1, 2], [0, 2, 3]]);
+    }
+
+    #[test]
+    fn concave_polygons_are_covered_exactly_with_their_winding() {
+        // An L shape (area 3), counter-clockwise seen from +z, starting at the reflex corner so
+        // that a fan from the first corner would be wrong.
+        let p = [
+            [1.0, 1.0, 0.0],
+            [1.0, 2.0, 0.0],
+            [0.0, 2.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.0, 1.0, 0.0],
+        ];
+        // The same polygon clockwise has area -3: both windings must be kept.
+        for (order, expected) in [([0u32, 1, 2, 3, 4, 5], 3.0), ([5, 4, 3, 2, 1, 0], -3.0)] {
+            let (s, out) = run(&order, &p);
+            assert_eq!(s, Shape::Concave);
+            assert_eq!(out.len(), 4);
+            for t in &out {
+                let a = area(&[*t], &p);
+                assert!(a * expected > 0.0, "{t:?} has the wrong winding");
+            }
+            assert!((area(&out, &p) - expected).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn collinear_corners_make_no_degenerate_triangle() {
+        // A square with an extra corner in the middle of one edge, and a notch.
+        let p = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.0, 2.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 2.0, 0.0],
+        ];
+        let (_, out) = run(&[0, 1, 2, 3, 4, 5], &p);
+        assert!((area(&out, &p) - 3.0).abs() < 1e-12);
+        assert!(out.iter().all(|t| area(&[*t], &p) > 0.0), "{out:?}");
+    }
+}
