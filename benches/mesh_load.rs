@@ -8,8 +8,8 @@
 
 use glam::DVec3;
 use photondiff::embree::TriangleMesh;
+use photondiff::scene::mesh_file::load_mesh;
 use photondiff::scene::mesh_file::ply::write::write_binary;
-use photondiff::scene::mesh_file::{load_mesh, mesh_bytes};
 use photondiff::scene::shapes::sphere;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -85,7 +85,7 @@ fn main() {
         println!(
             "{} {} {}",
             peak.saturating_sub(before),
-            mesh_bytes(&mesh),
+            mesh.bytes(),
             mesh.triangles.len()
         );
         return;

@@ -184,7 +184,7 @@ fn embree_sphere(segments: u32) -> Scene {
     let device = Device::new().unwrap();
     let mut builder = SceneBuilder::new(&device);
     builder
-        .add_mesh(&shapes::sphere(CENTRE, 1.0, segments))
+        .add_mesh(shapes::sphere(CENTRE, 1.0, segments))
         .unwrap();
     builder.commit().unwrap()
 }

@@ -12,7 +12,7 @@ fn scene() -> Scene {
     let mut builder = SceneBuilder::new(&device);
     // Geometry 0: the square [-1, 1]^2 at z = 0, facing +z.
     let id = builder
-        .add_mesh(&shapes::quad(
+        .add_mesh(shapes::quad(
             DVec3::new(-1.0, -1.0, 0.0),
             DVec3::new(2.0, 0.0, 0.0),
             DVec3::new(0.0, 2.0, 0.0),
@@ -21,7 +21,7 @@ fn scene() -> Scene {
     assert_eq!(id, 0);
     // Geometry 1: a unit sphere at (0, 0, 3).
     let id = builder
-        .add_mesh(&shapes::sphere(DVec3::new(0.0, 0.0, 3.0), 1.0, 256))
+        .add_mesh(shapes::sphere(DVec3::new(0.0, 0.0, 3.0), 1.0, 256))
         .unwrap();
     assert_eq!(id, 1);
     builder.commit().unwrap()
@@ -218,7 +218,7 @@ fn malformed_meshes_are_rejected_with_a_reason() {
         ),
     ];
     for (mesh, message) in cases {
-        let err: EmbreeError = builder.add_mesh(&mesh).unwrap_err();
+        let err: EmbreeError = builder.add_mesh(mesh).unwrap_err();
         assert_eq!(err.to_string(), message);
     }
 }

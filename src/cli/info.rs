@@ -3,7 +3,7 @@
 
 use photondiff::embree::TriangleMesh;
 use photondiff::scene::file::load_scene;
-use photondiff::scene::mesh_file::{load_mesh_with_report, mesh_bytes, MeshReport};
+use photondiff::scene::mesh_file::{load_mesh_with_report, MeshReport};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -41,7 +41,7 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         for m in &scene.meshes {
             // Only the bounds and counts of the union are wanted: no copy of the buffers.
             all.positions.extend(bounds(&m.mesh));
-            bytes += mesh_bytes(&m.mesh);
+            bytes += m.mesh.bytes();
         }
         let triangles: usize = scene.meshes.iter().map(|m| m.mesh.triangles.len()).sum();
         out += &format!(
@@ -90,7 +90,7 @@ fn describe(mesh: &TriangleMesh, report: &MeshReport) -> String {
             report.skipped_lines_points
         );
     }
-    s += &format!("  memory     {}\n", memory(mesh_bytes(mesh)));
+    s += &format!("  memory     {}\n", memory(mesh.bytes()));
     s
 }
 

@@ -1,7 +1,7 @@
 //! `photondiff render`: a scene file to an EXR, a PNG preview and statistics.
 
 use super::create_parent;
-use photondiff::embree::Device;
+use photondiff::embree::{BvhQuality, BvhSettings, Device};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
@@ -102,6 +102,17 @@ pub struct RenderArgs {
     /// written as an EXR whose data window is the band; `photondiff merge` joins them.
     #[arg(long, value_name = "I/N")]
     tile: Option<String>,
+    /// Embree's BVH build quality: `high` (spatial splits: slowest build, fastest tracing),
+    /// `medium` (less build memory and time) or `low` (fastest build, slower tracing).
+    #[arg(long, value_enum, default_value_t = BvhQuality::High)]
+    bvh_quality: BvhQuality,
+    /// Embree's compact BVH (`RTC_SCENE_FLAG_COMPACT`): less memory, somewhat slower tracing.
+    #[arg(long)]
+    bvh_compact: bool,
+    /// Embree's robust traversal (`RTC_SCENE_FLAG_ROBUST`): no hits missed on edges and
+    /// vertices through traversal shortcuts, somewhat slower tracing.
+    #[arg(long)]
+    bvh_robust: bool,
     /// No progress bar and no statistics summary.
     #[arg(short, long)]
     quiet: bool,
@@ -142,9 +153,18 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     stats.mesh_repairs = scene.mesh_report();
     let device = Device::new().map_err(|e| e.to_string())?;
+    let bvh = BvhSettings {
+        quality: args.bvh_quality,
+        compact: args.bvh_compact,
+        robust: args.bvh_robust,
+    };
     let embree = stats
-        .time("build BVH", || scene.build_embree(&device))
+        .time("build BVH", || scene.build_embree_with(&device, bvh))
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    stats.memory.triangles = scene.triangle_count();
+    stats.memory.mesh_bytes = scene.mesh_bytes();
+    stats.memory.bvh_bytes = device.memory().current;
+    stats.memory.bvh_build_peak_bytes = device.memory().peak;
     let options = RenderOptions::default()
         .with_view_grid(args.view_grid)
         .with_threads(args.threads)
@@ -295,6 +315,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         film.write_exr_window(&exr, &metadata, (window.x0, window.y0), (width, height))?;
         film.write_png(&png)
     })?;
+    stats.memory.record_peak();
     if let Some(path) = &args.stats_json {
         create_parent(path)?;
         let json = serde_json::to_string_pretty(&stats).map_err(|e| e.to_string())?;

@@ -2,6 +2,7 @@
 
 use super::ffi;
 use std::ffi::{c_char, c_void, CStr};
+use std::sync::atomic::{AtomicI64, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// An error reported by Embree, or found by this layer before a call reached Embree.
@@ -46,9 +47,38 @@ extern "C" fn error_callback(user_ptr: *mut c_void, code: ffi::RTCError, message
     });
 }
 
+/// Bytes Embree holds now and at most, as its memory monitor reports them.
+#[derive(Default)]
+struct MemoryCounter {
+    current: AtomicI64,
+    peak: AtomicI64,
+}
+
+/// Called by Embree on any thread before it allocates (`bytes > 0`) and after it frees
+/// (`bytes < 0`). Returning true lets the allocation proceed; it must not unwind into C.
+extern "C" fn memory_monitor(user_ptr: *mut c_void, bytes: isize, _post: bool) -> bool {
+    // SAFETY: `user_ptr` is the `MemoryCounter` owned by an `Arc` inside the `DeviceHandle`,
+    // which outlives the device (it is released before the Arc is dropped).
+    let counter = unsafe { &*(user_ptr as *const MemoryCounter) };
+    let now = counter.current.fetch_add(bytes as i64, Ordering::Relaxed) + bytes as i64;
+    counter.peak.fetch_max(now, Ordering::Relaxed);
+    true
+}
+
+/// What Embree's allocations amount to on one device (BVHs and any buffers Embree owns; the
+/// mesh buffers photondiff shares with it are not included).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct EmbreeMemory {
+    /// Bytes held now.
+    pub current: u64,
+    /// Most bytes held at once since the device was made (BVH builds need temporary memory).
+    pub peak: u64,
+}
+
 pub(super) struct DeviceHandle {
     pub(super) raw: ffi::RTCDevice,
     errors: Arc<ErrorSlot>,
+    memory: Arc<MemoryCounter>,
 }
 
 // SAFETY: Embree devices are thread-safe; the error slot is behind a mutex.
@@ -94,6 +124,15 @@ impl Device {
         format!("{}.{}.{}", v / 10000, v / 100 % 100, v % 100)
     }
 
+    /// What Embree has allocated on this device, now and at most.
+    pub fn memory(&self) -> EmbreeMemory {
+        let m = &self.handle.memory;
+        EmbreeMemory {
+            current: m.current.load(Ordering::Relaxed).max(0) as u64,
+            peak: m.peak.load(Ordering::Relaxed).max(0) as u64,
+        }
+    }
+
     /// Creates a device with Embree's default configuration.
     pub fn new() -> Result<Self, EmbreeError> {
         // SAFETY: a null config string asks for the defaults.
@@ -133,8 +172,22 @@ impl Device {
                 Arc::as_ptr(&errors) as *mut c_void,
             )
         };
+        let memory: Arc<MemoryCounter> = Arc::default();
+        // SAFETY: `raw` is a valid device; the user pointer is the counter inside `memory`, which
+        // the handle keeps alive until after rtcReleaseDevice; the monitor never unwinds.
+        unsafe {
+            ffi::rtcSetDeviceMemoryMonitorFunction(
+                raw,
+                Some(memory_monitor),
+                Arc::as_ptr(&memory) as *mut c_void,
+            )
+        };
         Ok(Device {
-            handle: Arc::new(DeviceHandle { raw, errors }),
+            handle: Arc::new(DeviceHandle {
+                raw,
+                errors,
+                memory,
+            }),
         })
     }
 }

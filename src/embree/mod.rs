@@ -33,11 +33,11 @@ mod v3;
 #[cfg(embree_api = "4")]
 mod v4;
 
-pub use device::{Device, EmbreeError};
+pub use device::{Device, EmbreeError, EmbreeMemory};
 pub use hit::Hit;
 pub use query::RawRays;
 pub use ray::Ray;
-pub use scene::{Scene, SceneBuilder, TriangleMesh};
+pub use scene::{BvhQuality, BvhSettings, Scene, SceneBuilder, TriangleMesh};
 
 /// Width of the ray packets traced by [`Scene::intersect16`] and [`Scene::occluded16`].
 pub const PACKET_WIDTH: usize = 16;

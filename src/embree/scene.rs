@@ -21,6 +21,22 @@ pub struct TriangleMesh {
 }
 
 impl TriangleMesh {
+    /// Makes sure `positions` has one element of spare capacity, zeroed: Embree reads 4 bytes
+    /// past the last vertex, and a mesh with this padding is shared with Embree without a copy
+    /// (see [`SceneBuilder::add_mesh`]). Loaders that know the vertex count allocate it upfront.
+    pub fn reserve_padding(&mut self) {
+        self.positions.reserve(1);
+        self.positions.spare_capacity_mut()[0].write([0.0; 3]);
+    }
+
+    /// Bytes of the mesh's data: 12 per position, per normal and per triangle (three 32-bit
+    /// indices). The PLY loader reserves exactly this (plus the padding position); the OBJ
+    /// loader's buffers grow as it reads and may hold up to twice as much.
+    pub fn bytes(&self) -> u64 {
+        let normals = self.normals.as_ref().map_or(0, Vec::len);
+        12 * (self.positions.len() + normals + self.triangles.len()) as u64
+    }
+
     /// Checks what Embree would otherwise silently drop or mis-handle: non-finite or huge
     /// vertices, out-of-range indices, zero-area triangles, mismatched or zero normals.
     pub fn validate(&self) -> Result<(), String> {
@@ -73,34 +89,55 @@ impl TriangleMesh {
     }
 }
 
-/// A mesh as the committed scene keeps it: Embree reads the vertex and index buffers in place.
+/// A mesh as the committed scene keeps it: Embree reads the positions and triangles in place.
+/// Embree loads the last vertex with a 16-byte read, 4 bytes past its end, so `positions` must
+/// have at least one element of spare capacity ([`TriangleMesh::reserve_padding`]); a mesh that
+/// lacks it is copied into one that has it.
 struct MeshBuffers {
-    /// `x y z` per vertex plus one padding float: Embree reads 16 bytes for the last vertex.
-    vertices: Vec<f32>,
-    normals: Option<Vec<[f32; 3]>>,
-    indices: Vec<u32>,
+    mesh: Arc<TriangleMesh>,
 }
 
 impl MeshBuffers {
     fn vertex(&self, index: u32) -> DVec3 {
-        let k = 3 * index as usize;
-        DVec3::new(
-            self.vertices[k] as f64,
-            self.vertices[k + 1] as f64,
-            self.vertices[k + 2] as f64,
-        )
+        DVec3::from(self.mesh.positions[index as usize].map(f64::from))
     }
 
     fn triangle(&self, prim: u32) -> [u32; 3] {
-        let k = 3 * prim as usize;
-        [self.indices[k], self.indices[k + 1], self.indices[k + 2]]
+        self.mesh.triangles[prim as usize]
     }
+}
+
+/// How much time Embree's BVH build spends on the tree's quality (`RTCBuildQuality`): `high`
+/// builds slowest and traces fastest (spatial splits), `low` the reverse.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum BvhQuality {
+    /// Morton-code build: fastest, for scenes traced with few rays.
+    Low,
+    /// Binned SAH build without spatial splits: less build memory than `high`.
+    Medium,
+    /// SAH build with spatial splits: fastest tracing (photondiff's default).
+    #[default]
+    High,
 }
 
 /// Collects meshes; [`SceneBuilder::commit`] turns them into an immutable [`Scene`].
 pub struct SceneBuilder {
     device: Device,
     meshes: Vec<MeshBuffers>,
+    settings: BvhSettings,
+}
+
+/// How Embree builds the scene's BVH: the trade between build time, memory and tracing speed.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
+pub struct BvhSettings {
+    /// Build quality (`rtcSetSceneBuildQuality`).
+    pub quality: BvhQuality,
+    /// `RTC_SCENE_FLAG_COMPACT`: a BVH that takes less memory and traces somewhat slower.
+    pub compact: bool,
+    /// `RTC_SCENE_FLAG_ROBUST`: traversal without the optimisations that can miss hits on
+    /// edges and vertices; somewhat slower.
+    pub robust: bool,
 }
 
 impl SceneBuilder {
@@ -109,20 +146,28 @@ impl SceneBuilder {
         SceneBuilder {
             device: device.clone(),
             meshes: Vec::new(),
+            settings: BvhSettings::default(),
         }
     }
 
-    /// Adds a mesh and returns its geometry id (0, 1, 2, ... in the order of the calls).
-    pub fn add_mesh(&mut self, mesh: &TriangleMesh) -> Result<u32, EmbreeError> {
+    /// How the BVH is built (default: `high` quality, no flags).
+    pub fn settings(mut self, settings: BvhSettings) -> Self {
+        self.settings = settings;
+        self
+    }
+
+    /// Adds a mesh and returns its geometry id (0, 1, 2, ... in the order of the calls). The
+    /// committed scene shares the mesh's buffers with the caller rather than copying them
+    /// (unless its positions lack the padding Embree reads past the last vertex).
+    pub fn add_mesh(&mut self, mesh: impl Into<Arc<TriangleMesh>>) -> Result<u32, EmbreeError> {
+        let mut mesh: Arc<TriangleMesh> = mesh.into();
         mesh.validate().map_err(EmbreeError::InvalidMesh)?;
-        let mut vertices: Vec<f32> = mesh.positions.iter().flatten().copied().collect();
-        vertices.push(0.0);
-        let indices = mesh.triangles.iter().flatten().copied().collect();
-        self.meshes.push(MeshBuffers {
-            vertices,
-            normals: mesh.normals.clone(),
-            indices,
-        });
+        if mesh.positions.capacity() <= mesh.positions.len() {
+            let mut padded = (*mesh).clone();
+            padded.reserve_padding();
+            mesh = Arc::new(padded);
+        }
+        self.meshes.push(MeshBuffers { mesh });
         Ok(self.meshes.len() as u32 - 1)
     }
 
@@ -145,16 +190,33 @@ impl SceneBuilder {
                 message: "rtcNewScene failed".into(),
             }));
         }
+        let quality = match self.settings.quality {
+            BvhQuality::Low => ffi::RTCBuildQuality::RTC_BUILD_QUALITY_LOW,
+            BvhQuality::Medium => ffi::RTCBuildQuality::RTC_BUILD_QUALITY_MEDIUM,
+            BvhQuality::High => ffi::RTCBuildQuality::RTC_BUILD_QUALITY_HIGH,
+        };
+        let mut flags = ffi::RTCSceneFlags::RTC_SCENE_FLAG_NONE.0;
+        if self.settings.compact {
+            flags |= ffi::RTCSceneFlags::RTC_SCENE_FLAG_COMPACT.0;
+        }
+        if self.settings.robust {
+            flags |= ffi::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST.0;
+        }
         // SAFETY: `raw` is a valid scene.
         unsafe {
-            ffi::rtcSetSceneBuildQuality(raw, ffi::RTCBuildQuality::RTC_BUILD_QUALITY_HIGH);
+            ffi::rtcSetSceneBuildQuality(raw, quality);
+            ffi::rtcSetSceneFlags(raw, ffi::RTCSceneFlags(flags));
         }
-        for (id, mesh) in scene.meshes.iter().enumerate() {
-            let vertex_count = (mesh.vertices.len() - 1) / 3;
-            let triangle_count = mesh.indices.len() / 3;
-            // SAFETY: the buffers live in `scene.meshes`, which the scene keeps (their heap storage
-            // never moves) until after rtcReleaseScene; the vertex buffer has the 4 bytes of padding
-            // Embree reads past the last vertex; the indices were validated against the vertex count.
+        for (id, buffers) in scene.meshes.iter().enumerate() {
+            let mesh = &buffers.mesh;
+            let vertex_count = mesh.positions.len();
+            let triangle_count = mesh.triangles.len();
+            // SAFETY: the buffers live in the `Arc`s of `scene.meshes`, which the scene keeps
+            // (their heap storage never moves: nothing can mutate a shared `Arc`) until after
+            // rtcReleaseScene; `add_mesh` made sure the positions have spare capacity, so the 4
+            // bytes Embree reads past the last vertex are allocated; `[f32; 3]` and `[u32; 3]`
+            // are 12 bytes with no padding, the strides given; the indices were validated
+            // against the vertex count.
             unsafe {
                 let geometry = ffi::rtcNewGeometry(
                     device.raw,
@@ -168,7 +230,7 @@ impl SceneBuilder {
                     ffi::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
                     0,
                     ffi::RTCFormat::RTC_FORMAT_FLOAT3,
-                    mesh.vertices.as_ptr() as *const std::ffi::c_void,
+                    mesh.positions.as_ptr() as *const std::ffi::c_void,
                     0,
                     12,
                     vertex_count,
@@ -178,7 +240,7 @@ impl SceneBuilder {
                     ffi::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
                     0,
                     ffi::RTCFormat::RTC_FORMAT_UINT3,
-                    mesh.indices.as_ptr() as *const std::ffi::c_void,
+                    mesh.triangles.as_ptr() as *const std::ffi::c_void,
                     0,
                     12,
                     triangle_count,
@@ -271,7 +333,7 @@ impl Scene {
                 t = t64;
             }
         }
-        let (shading_normal, dn_du, dn_dv) = match &mesh.normals {
+        let (shading_normal, dn_du, dn_dv) = match &mesh.mesh.normals {
             None => (geometric_normal, DVec3::ZERO, DVec3::ZERO),
             Some(normals) => {
                 let [n0, n1, n2] = tri.map(|k| DVec3::from(normals[k as usize].map(f64::from)));

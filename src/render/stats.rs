@@ -72,6 +72,37 @@ pub struct Stats {
     pub progressive: Option<PassReport>,
     /// What loading the scene's mesh files dropped or repaired, over all meshes.
     pub mesh_repairs: MeshReport,
+    /// Memory: the meshes, Embree's BVH and the process's peak.
+    pub memory: MemoryStats,
+}
+
+/// Where the memory went (bytes).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
+pub struct MemoryStats {
+    /// Triangles in the scene (unique: each mesh counted once).
+    pub triangles: u64,
+    /// Mesh buffers (positions, normals, indices), shared between the scene and Embree.
+    pub mesh_bytes: u64,
+    /// What Embree holds after the build (its BVH), from its memory monitor.
+    pub bvh_bytes: u64,
+    /// The most Embree held at once during the build (the BVH and the builder's temporaries).
+    pub bvh_build_peak_bytes: u64,
+    /// The process's peak resident memory (`VmHWM`) at the end of the run.
+    pub peak_resident_bytes: u64,
+    /// `peak_resident_bytes / triangles`.
+    pub peak_bytes_per_triangle: f64,
+}
+
+impl MemoryStats {
+    /// Records the process's peak resident memory now (call at the end of the run).
+    pub fn record_peak(&mut self) {
+        self.peak_resident_bytes = crate::util::memory::peak_resident_bytes();
+        self.peak_bytes_per_triangle = if self.triangles > 0 {
+            self.peak_resident_bytes as f64 / self.triangles as f64
+        } else {
+            0.0
+        };
+    }
 }
 
 /// How one photon map was made.
@@ -159,6 +190,20 @@ impl Stats {
         }
         if let Some(w) = self.mesh_repairs.warning() {
             out += &format!("  meshes: {w}\n");
+        }
+        let m = &self.memory;
+        if m.peak_resident_bytes > 0 {
+            let mb = |b: u64| b as f64 / 1e6;
+            out += &format!(
+                "  memory: peak resident {:.1} MB ({:.0} bytes/triangle over {} triangles); \
+                 meshes {:.1} MB, Embree BVH {:.1} MB (build peak {:.1} MB)\n",
+                mb(m.peak_resident_bytes),
+                m.peak_bytes_per_triangle,
+                m.triangles,
+                mb(m.mesh_bytes),
+                mb(m.bvh_bytes),
+                mb(m.bvh_build_peak_bytes)
+            );
         }
         let render = self.seconds("render");
         let r = &self.rays;

@@ -11,6 +11,7 @@ use glam::DVec3;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// A scene that could not be loaded: the file and what is wrong with it.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -226,7 +227,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
     for (i, shape) in file.shapes.iter().enumerate() {
         let field = format!("shapes[{i}]");
         let mut report = MeshReport::default();
-        let (kind, mesh, material) = match shape {
+        let (kind, mut mesh, material) = match shape {
             ShapeDesc::Mesh { file, material: m } => {
                 let path = base.join(file);
                 let loaded =
@@ -268,9 +269,10 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
         };
         mesh.validate()
             .map_err(|e| format!("{field} ({kind}): {e}"))?;
+        mesh.reserve_padding();
         meshes.push(SceneMesh {
             name: format!("{field} ({kind})"),
-            mesh,
+            mesh: Arc::new(mesh),
             material,
             report,
         });
@@ -330,7 +332,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 let radiance = non_negative(&format!("{field}.radiance"), radiance)?;
                 meshes.push(SceneMesh {
                     name: format!("{field} (quad light)"),
-                    mesh: shapes::quad(c, u, v),
+                    mesh: Arc::new(shapes::quad(c, u, v)),
                     material: Material::Emitter { radiance },
                     report: MeshReport::default(),
                 });

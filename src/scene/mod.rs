@@ -8,10 +8,11 @@ pub mod hash;
 pub mod mesh_file;
 pub mod shapes;
 
-use crate::embree::{self, Device, EmbreeError, TriangleMesh};
+use crate::embree::{self, BvhSettings, Device, EmbreeError, TriangleMesh};
 use camera::Camera;
 use glam::DVec3;
 use mesh_file::MeshReport;
+use std::sync::Arc;
 
 /// A surface's scattering.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -119,8 +120,8 @@ pub struct SceneMesh {
     /// What the mesh came from, for messages ("`shapes[2]` (sphere)", "`shapes[0]` (mesh
     /// bunny.ply)").
     pub name: String,
-    /// The triangles.
-    pub mesh: TriangleMesh,
+    /// The triangles, shared with the Embree scene built from them (not copied).
+    pub mesh: Arc<TriangleMesh>,
     /// Its material.
     pub material: Material,
     /// What loading its file dropped or repaired (all zero for shapes made in the scene file).
@@ -141,10 +142,19 @@ pub struct Scene {
 impl Scene {
     /// Builds the Embree scene: every mesh in order, so geometry id `i` is `self.meshes[i]`.
     pub fn build_embree(&self, device: &Device) -> Result<embree::Scene, EmbreeError> {
-        let mut builder = embree::SceneBuilder::new(device);
+        self.build_embree_with(device, BvhSettings::default())
+    }
+
+    /// [`Scene::build_embree`] with the BVH's settings (quality, compact, robust).
+    pub fn build_embree_with(
+        &self,
+        device: &Device,
+        settings: BvhSettings,
+    ) -> Result<embree::Scene, EmbreeError> {
+        let mut builder = embree::SceneBuilder::new(device).settings(settings);
         for mesh in &self.meshes {
             builder
-                .add_mesh(&mesh.mesh)
+                .add_mesh(mesh.mesh.clone())
                 .map_err(|e| EmbreeError::InvalidMesh(format!("{}: {e}", mesh.name)))?;
         }
         builder.commit()
@@ -165,6 +175,19 @@ impl Scene {
             .iter()
             .filter_map(|m| Some(format!("{}: {}", m.name, m.report.warning()?)))
             .collect()
+    }
+
+    /// Triangles over all meshes.
+    pub fn triangle_count(&self) -> u64 {
+        self.meshes
+            .iter()
+            .map(|m| m.mesh.triangles.len() as u64)
+            .sum()
+    }
+
+    /// Bytes of the mesh buffers (shared with the Embree scene), over all meshes.
+    pub fn mesh_bytes(&self) -> u64 {
+        self.meshes.iter().map(|m| m.mesh.bytes()).sum()
     }
 
     /// The material of Embree geometry `geom_id`.

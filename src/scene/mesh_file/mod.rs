@@ -90,13 +90,6 @@ pub struct LoadedMesh {
     pub report: MeshReport,
 }
 
-/// Bytes the mesh's buffers take: 12 per position, 12 per normal, 12 per triangle (the
-/// capacity actually reserved, which the loaders keep equal to the length).
-pub fn mesh_bytes(mesh: &TriangleMesh) -> u64 {
-    let normals = mesh.normals.as_ref().map_or(0, |n| n.capacity());
-    12 * (mesh.positions.capacity() + normals + mesh.triangles.capacity()) as u64
-}
-
 /// Loads the mesh in `path`, choosing the format by extension (`.obj` or `.ply`).
 /// Errors are messages that name the file.
 pub fn load_mesh(path: &Path) -> Result<TriangleMesh, String> {
@@ -129,5 +122,7 @@ pub fn load_mesh_with_report(path: &Path) -> Result<LoadedMesh, String> {
     }
     // The loaders and the repair make every mesh valid; Embree's own check stays the last word.
     mesh.validate().map_err(in_file)?;
+    // Embree shares the buffers instead of copying them when the positions are padded.
+    mesh.reserve_padding();
     Ok(LoadedMesh { mesh, report })
 }

@@ -175,7 +175,8 @@ impl Sink {
         // Both counts were checked against the file's size: reserving them is safe.
         let vertices = header.elements[layout.vertex].count as usize;
         Sink {
-            positions: Vec::with_capacity(vertices),
+            // One more: the padding Embree reads past the last vertex.
+            positions: Vec::with_capacity(vertices + 1),
             normals: layout.normal.map(|_| Vec::with_capacity(vertices)),
             triangles: Vec::with_capacity(header.elements[layout.face].count as usize),
             vertex_count: vertices as u64,

@@ -1,0 +1,40 @@
+//! The process's resident memory, as Linux reports it in `/proc/self/status`.
+
+/// A field of `/proc/self/status` in bytes (`VmRSS`, `VmHWM`, ...), or `None` where the file
+/// or the field is missing (not Linux, or a restricted /proc).
+pub fn status_bytes(field: &str) -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/status").ok()?;
+    text.lines()
+        .find_map(|l| l.strip_prefix(field)?.strip_prefix(':'))
+        .and_then(|v| v.trim().strip_suffix("kB")?.trim().parse::<u64>().ok())
+        .map(|kb| kb * 1024)
+}
+
+/// The most resident memory the process has held so far (`VmHWM`), 0 where unknown.
+pub fn peak_resident_bytes() -> u64 {
+    status_bytes("VmHWM").unwrap_or(0)
+}
+
+/// The resident memory the process holds now (`VmRSS`), 0 where unknown.
+pub fn resident_bytes() -> u64 {
+    status_bytes("VmRSS").unwrap_or(0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn peak_is_at_least_what_is_resident_and_grows_with_a_touched_allocation() {
+        let before = peak_resident_bytes();
+        assert!(before >= resident_bytes().min(before) && before > 0);
+        // 64 MiB written page by page must raise the high-water mark by most of that.
+        let block = vec![1u8; 64 << 20];
+        let after = peak_resident_bytes();
+        assert!(block.iter().step_by(4096).all(|&b| b == 1));
+        assert!(
+            after >= before + (48 << 20) || before > resident_bytes() + (64 << 20),
+            "VmHWM {before} -> {after}"
+        );
+    }
+}

@@ -1,0 +1,125 @@
+//! Memory you can see and control: the scene's meshes are shared with Embree (not copied), the
+//! statistics account for meshes, Embree's BVH and the process's peak, and the BVH settings
+//! change memory but not what the rays hit.
+
+use photondiff::embree::Device;
+use photondiff::render::part::read_part;
+use photondiff::scene::file::load_scene;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::Arc;
+
+const EXE: &str = env!("CARGO_BIN_EXE_photondiff");
+
+/// The canonical scene at 96 x 72, plus a mesh file (a PLY written by photondiff) so that a
+/// loaded mesh is part of it.
+fn scene(dir: &Path) -> PathBuf {
+    let mesh = photondiff::scene::shapes::sphere(glam::DVec3::ZERO, 0.3, 64);
+    let ply = dir.join("ball.ply");
+    photondiff::scene::mesh_file::ply::write::write_binary(
+        &mesh,
+        std::io::BufWriter::new(std::fs::File::create(&ply).unwrap()),
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ))
+    .unwrap()
+    .replace("width = 640", "width = 96")
+    .replace("height = 480", "height = 72")
+        + "\n[[shapes]]\ntype = \"mesh\"\nfile = \"ball.ply\"\nmaterial = \"floor\"\n";
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+#[test]
+fn the_embree_scene_shares_the_meshes_instead_of_copying_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = load_scene(&scene(dir.path())).unwrap();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    // Loaded and generated meshes are padded for Embree, so the Embree scene holds a second
+    // reference to the same buffers; a copy would leave the count at 1.
+    for m in &scene.meshes {
+        if m.name.contains("quad light") {
+            continue;
+        }
+        assert_eq!(Arc::strong_count(&m.mesh), 2, "{}", m.name);
+    }
+    drop(embree);
+    assert!(scene.meshes.iter().all(|m| Arc::strong_count(&m.mesh) == 1));
+}
+
+/// Renders `scene` with `extra` options; returns the statistics JSON and the pixels.
+fn render(scene: &Path, name: &str, extra: &[&str]) -> (serde_json::Value, Vec<glam::DVec3>) {
+    let dir = scene.parent().unwrap();
+    let exr = dir.join(format!("{name}.exr"));
+    let json = dir.join(format!("{name}.json"));
+    let out = Command::new(EXE)
+        .arg("render")
+        .arg(scene)
+        .args(["-q", "--photons", "5000", "--caustic-photons", "5000", "-o"])
+        .arg(&exr)
+        .arg("--stats-json")
+        .arg(&json)
+        .args(extra)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    (stats, read_part(&exr).unwrap().film.pixels)
+}
+
+#[test]
+fn statistics_account_for_meshes_and_the_bvh_and_bvh_settings_keep_the_hits() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene(dir.path());
+    let scene = load_scene(&path).unwrap();
+    let triangles: u64 = scene
+        .meshes
+        .iter()
+        .map(|m| m.mesh.triangles.len() as u64)
+        .sum();
+    let mesh_bytes: u64 = scene
+        .meshes
+        .iter()
+        .map(|m| {
+            let normals = m.mesh.normals.as_ref().map_or(0, Vec::len);
+            12 * (m.mesh.positions.len() + normals + m.mesh.triangles.len()) as u64
+        })
+        .sum();
+    let (high, high_pixels) = render(&path, "high", &[]);
+    let (compact, compact_pixels) = render(
+        &path,
+        "compact",
+        &["--bvh-quality", "medium", "--bvh-compact"],
+    );
+    let get = |s: &serde_json::Value, k: &str| s["memory"][k].as_f64().unwrap();
+    for s in [&high, &compact] {
+        assert_eq!(get(s, "triangles") as u64, triangles);
+        assert_eq!(get(s, "mesh_bytes") as u64, mesh_bytes);
+        // Embree's BVH for 2.6e5 triangles takes megabytes, and its build needs at least that.
+        assert!(get(s, "bvh_bytes") > 16.0 * triangles as f64, "{s}");
+        assert!(get(s, "bvh_build_peak_bytes") >= get(s, "bvh_bytes"));
+        assert!(get(s, "peak_resident_bytes") >= get(s, "mesh_bytes") + get(s, "bvh_bytes"));
+        let per_triangle = get(s, "peak_resident_bytes") / triangles as f64;
+        assert!((get(s, "peak_bytes_per_triangle") - per_triangle).abs() < 1e-6 * per_triangle);
+    }
+    // The compact, medium-quality BVH is smaller and builds with less memory...
+    assert!(get(&compact, "bvh_bytes") < 0.75 * get(&high, "bvh_bytes"));
+    assert!(get(&compact, "bvh_build_peak_bytes") < get(&high, "bvh_build_peak_bytes"));
+    // ...and finds the same hits: the same image.
+    let mean: f64 = high_pixels.iter().map(|p| p.element_sum()).sum::<f64>();
+    let diff: f64 = high_pixels
+        .iter()
+        .zip(&compact_pixels)
+        .map(|(a, b)| (*a - *b).abs().element_sum())
+        .sum();
+    assert!(diff <= 1e-6 * mean, "images differ by {diff} (sum {mean})");
+}
