@@ -113,6 +113,11 @@ pub struct RenderArgs {
     /// vertices through traversal shortcuts, somewhat slower tracing.
     #[arg(long)]
     bvh_robust: bool,
+    /// Write a trace for profiling to FILE: Chrome trace-event JSON with spans per stage, pass
+    /// and tile and counter tracks (rays, photons, noise); open it in Perfetto
+    /// (ui.perfetto.dev) or chrome://tracing.
+    #[arg(long, value_name = "FILE")]
+    trace: Option<PathBuf>,
     /// No progress bar and no statistics summary.
     #[arg(short, long)]
     quiet: bool,
@@ -122,6 +127,11 @@ pub struct RenderArgs {
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     let kind = estimator_kind(args);
     let stop = stop_rules(args)?;
+    if let Some(path) = &args.trace {
+        // Refuse an unwritable path now rather than after the render.
+        create_parent(path)?;
+        photondiff::util::trace::enable();
+    }
     let mut stats = Stats {
         embree: photondiff::embree::BACKEND.to_string(),
         ..Stats::default()
@@ -316,6 +326,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         film.write_png(&png)
     })?;
     stats.memory.record_peak();
+    if let Some(path) = &args.trace {
+        photondiff::util::trace::write(path).map_err(|e| format!("--trace: {e}"))?;
+    }
     if let Some(path) = &args.stats_json {
         create_parent(path)?;
         let json = serde_json::to_string_pretty(&stats).map_err(|e| e.to_string())?;

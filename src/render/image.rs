@@ -193,6 +193,9 @@ pub fn render_image(
             tiles
                 .par_iter()
                 .map(|tile| {
+                    let _span = crate::util::trace::span_with("tile", || {
+                        serde_json::json!({"x0": tile.x0, "y0": tile.y0, "x1": tile.x1, "y1": tile.y1})
+                    });
                     let r = renderer.render_tile(*tile);
                     progress.inc(1);
                     r

@@ -39,6 +39,7 @@ use crate::render::photon_pass::trace_photon_maps;
 use crate::render::stats::Stats;
 use crate::scene::Scene;
 use crate::util::rng::derive_seed;
+use crate::util::trace;
 use serde::Serialize;
 use std::ops::Range;
 use std::time::{Duration, Instant};
@@ -198,8 +199,11 @@ impl Progressive<'_> {
         let (width, height) = self.film_size();
         let mut sum = PassSum::new(width, height);
         for pass in range {
+            let span = trace::span_with("pass", || serde_json::json!({ "pass": pass }));
             let mut pass_stats = Stats::default();
             sum.add(&self.render_pass(pass, false, &mut pass_stats)?);
+            drop(span);
+            trace_pass(&pass_stats);
             stats.absorb_pass(pass_stats);
         }
         stats.finish_passes(sum.passes);
@@ -255,6 +259,7 @@ impl Progressive<'_> {
                     break StopReason::TargetNoise;
                 }
             }
+            let span = trace::span_with("pass", || serde_json::json!({ "pass": done }));
             let mut pass_stats = Stats::default();
             let pass_maps = if done == 0 { maps.take() } else { None };
             sum.add(&self.render_pass_with(
@@ -263,8 +268,14 @@ impl Progressive<'_> {
                 progress && single,
                 &mut pass_stats,
             )?);
+            drop(span);
+            trace_pass(&pass_stats);
             stats.absorb_pass(pass_stats);
             noise = NoiseEstimate::of(&sum);
+            trace::counter("noise of the mean", || {
+                serde_json::json!({"image": noise.whole.unwrap_or(0.0),
+                                   "caustic": noise.caustic.unwrap_or(0.0)})
+            });
             let elapsed = start.elapsed().as_secs_f64();
             bar.set_position(sum.passes);
             bar.set_message(status(stop, sum.passes, elapsed, &noise, self.alpha));
@@ -281,6 +292,27 @@ impl Progressive<'_> {
         });
         Ok(sum)
     }
+}
+
+/// One pass's counts as counter tracks of the trace.
+fn trace_pass(pass: &Stats) {
+    trace::counter("rays", || {
+        let r = &pass.rays;
+        serde_json::json!({"camera": r.camera, "specular": r.specular, "shadow": r.shadow})
+    });
+    trace::counter("photons stored", || {
+        serde_json::Value::Object(
+            pass.photon_maps
+                .iter()
+                .map(|m| (format!("{:?}", m.class), m.stored.into()))
+                .collect(),
+        )
+    });
+    trace::counter("photons per gather", || {
+        let g = &pass.gathers;
+        let per = |n: u64| n as f64 / g.gathers.max(1) as f64;
+        serde_json::json!({"found": per(g.photons_found), "used": per(g.photons_used)})
+    });
 }
 
 /// The progress bar's message: time left (the least any rule allows, from the mean pass time)

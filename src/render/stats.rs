@@ -125,6 +125,7 @@ pub struct MapStats {
 impl Stats {
     /// Runs `f`, recording its wall-clock time as stage `name`.
     pub fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
+        let _span = crate::util::trace::span(name.to_string());
         let start = Instant::now();
         let out = f();
         self.stages.push(Stage {

@@ -1,0 +1,132 @@
+//! `render --trace FILE`: Chrome trace-event JSON with spans per stage, pass and tile and
+//! counter tracks, in the shape Perfetto reads.
+
+use serde_json::Value;
+use std::process::Command;
+
+const EXE: &str = env!("CARGO_BIN_EXE_photondiff");
+
+#[test]
+fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
+    let dir = tempfile::tempdir().unwrap();
+    // 64 x 48 pixels: 4 x 3 = 12 render tiles of 16 x 16 per pass.
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ))
+    .unwrap()
+    .replace("width = 640", "width = 64")
+    .replace("height = 480", "height = 48");
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let trace = dir.path().join("deep/trace.json");
+    let out = Command::new(EXE)
+        .arg("render")
+        .arg(&scene)
+        .args([
+            "-q",
+            "--passes",
+            "3",
+            "--photons",
+            "2000",
+            "--caustic-photons",
+            "2000",
+        ])
+        .arg("-o")
+        .arg(dir.path().join("a.exr"))
+        .arg("--trace")
+        .arg(&trace)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: Value = serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+    let events = json["traceEvents"].as_array().unwrap();
+    let named = |ph: &str, name: &str| -> Vec<&Value> {
+        events
+            .iter()
+            .filter(|e| e["ph"] == ph && e["name"] == name)
+            .collect()
+    };
+    // Every complete event has the fields Perfetto needs, with sane values.
+    for e in events.iter().filter(|e| e["ph"] == "X") {
+        assert!(e["ts"].as_f64().unwrap() >= 0.0, "{e}");
+        assert!(e["dur"].as_f64().unwrap() >= 0.0, "{e}");
+        assert_eq!(e["pid"], 1);
+        assert!(e["tid"].as_u64().unwrap() >= 1);
+    }
+    // Stages once (per pass for the per-pass ones), passes 0..3 in order, 12 tiles per pass.
+    for stage in ["load scene", "build BVH", "write images"] {
+        assert_eq!(named("X", stage).len(), 1, "{stage}");
+    }
+    assert_eq!(named("X", "trace photons").len(), 3);
+    assert_eq!(named("X", "render").len(), 3);
+    let passes = named("X", "pass");
+    let numbers: Vec<u64> = passes
+        .iter()
+        .map(|p| p["args"]["pass"].as_u64().unwrap())
+        .collect();
+    assert_eq!(numbers, [0, 1, 2]);
+    let tiles = named("X", "tile");
+    assert_eq!(tiles.len(), 3 * 12);
+    // Each tile lies within one pass's span, 12 in each.
+    let end = |e: &Value| e["ts"].as_f64().unwrap() + e["dur"].as_f64().unwrap();
+    for p in &passes {
+        let inside = tiles
+            .iter()
+            .filter(|t| t["ts"].as_f64() >= p["ts"].as_f64() && end(t) <= end(p) + 1.0)
+            .count();
+        assert_eq!(inside, 12, "{p}");
+    }
+    // Counter tracks once per pass, numeric values; every thread that recorded is named.
+    for counter in [
+        "rays",
+        "photons stored",
+        "photons per gather",
+        "noise of the mean",
+    ] {
+        let c = named("C", counter);
+        assert_eq!(c.len(), 3, "{counter}");
+        for e in c {
+            let args = e["args"].as_object().unwrap();
+            assert!(
+                !args.is_empty() && args.values().all(Value::is_number),
+                "{e}"
+            );
+        }
+    }
+    assert_eq!(named("C", "rays")[0]["args"]["camera"], 64 * 48);
+    let named_threads: Vec<&Value> = named("M", "thread_name")
+        .iter()
+        .map(|e| &e["tid"])
+        .collect();
+    for e in events.iter().filter(|e| e["ph"] != "M") {
+        assert!(named_threads.contains(&&e["tid"]), "{e}");
+    }
+}
+
+#[test]
+fn an_unwritable_trace_path_is_a_one_line_error_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let blocker = dir.path().join("file");
+    std::fs::write(&blocker, "").unwrap();
+    let out = Command::new(EXE)
+        .args([
+            "render",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
+        ])
+        .arg("-o")
+        .arg(dir.path().join("a.exr"))
+        .arg("--trace")
+        .arg(blocker.join("trace.json"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("photondiff: error: "), "{stderr}");
+    assert!(!dir.path().join("a.exr").exists());
+}
