@@ -1,10 +1,13 @@
 //! Writes a production-style test scene (no downloads): a finely tessellated, displaced glass
-//! ball as a binary little-endian PLY (10.2M triangles by default) and a scene file that sets it
-//! on the canonical scene's floor under its point light, so it throws a caustic.
+//! ball as a binary little-endian PLY (10.2M triangles by default) and two scene files:
+//! `production.toml` sets it on the canonical scene's floor under its point light, so it
+//! throws a caustic; `production-instanced.toml` places it 100 times (10 x 10, a third of its
+//! size, each turned differently): 1.02e9 triangles placed, one copy in memory.
 //!
 //! Run: `cargo run --release --example production_scene -- [--segments N] [--out DIR]`
 //! (default 3200 segments: 3200 x 1600 rings, 10,233,600 triangles; DIR default
-//! `out/production`). Then `photondiff render DIR/production.toml`.
+//! `out/production`). Then `photondiff render DIR/production.toml` (README: "Memory and large
+//! meshes" for the options and figures).
 
 use glam::DVec3;
 use photondiff::embree::TriangleMesh;
@@ -98,12 +101,33 @@ fn main() -> Result<(), String> {
     );
     let toml = out.join("production.toml");
     std::fs::write(&toml, scene).map_err(|e| format!("{}: {e}", toml.display()))?;
+    // The 100 instances: a 10 x 10 grid of thirds-size balls resting on the floor (the ball
+    // file is centred at (0, 1, 0), radius up to 1.02: scaled by 0.33 it dips 0.0066 below).
+    let mut instanced = format!(
+        "# Written by `cargo run --release --example production_scene -- --segments {segments}`:\n\
+         # 100 instances of the displaced glass ball ({} triangles each) on the canonical floor.\n\
+         {floor_and_light}[meshes.ball]\nfile = \"ball.ply\"\n",
+        mesh.triangles.len()
+    );
+    for i in 0..100 {
+        let (x, z) = ((i % 10) as f64 * 0.75 - 3.4, (i / 10) as f64 * 0.75 - 3.4);
+        instanced += &format!(
+            "\n[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\nscale = 0.33\n\
+             rotate = [0.0, {:.1}, 0.0]\ntranslate = [{x:.2}, {:.3}, {z:.2}]\n",
+            (i * 37 % 360) as f64,
+            0.33 * 0.02
+        );
+    }
+    let toml_instanced = out.join("production-instanced.toml");
+    std::fs::write(&toml_instanced, instanced)
+        .map_err(|e| format!("{}: {e}", toml_instanced.display()))?;
     println!(
-        "wrote {} ({} triangles, {:.0} MB) and {}",
+        "wrote {} ({} triangles, {:.0} MB), {} and {}",
         ply.display(),
         mesh.triangles.len(),
         std::fs::metadata(&ply).map(|m| m.len()).unwrap_or(0) as f64 / 1e6,
-        toml.display()
+        toml.display(),
+        toml_instanced.display()
     );
     Ok(())
 }

@@ -5,6 +5,7 @@ use photondiff::embree::TriangleMesh;
 use photondiff::scene::file::load_scene;
 use photondiff::scene::mesh_file::{load_mesh_with_report, MeshReport};
 use std::path::PathBuf;
+use std::sync::Arc;
 
 #[derive(clap::Args)]
 pub struct InfoArgs {
@@ -32,20 +33,39 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
             scene.meshes.len(),
             if scene.meshes.len() == 1 { "" } else { "es" },
         );
-        for m in &scene.meshes {
+        for (i, m) in scene.meshes.iter().enumerate() {
             out += &format!("{}:\n", m.name);
-            out += &describe(&m.mesh, &m.report);
+            // An instanced mesh is described once; its other instances only say where they are.
+            let first = scene.meshes[..i]
+                .iter()
+                .all(|o| !Arc::ptr_eq(&o.mesh, &m.mesh));
+            if first {
+                out += &describe(&m.mesh, &m.report);
+            }
+            if let Some(t) = m.transform {
+                out += &format!(
+                    "  transform  linear {:?}, translation {:?}\n",
+                    t.matrix3.to_cols_array(),
+                    t.translation.to_array()
+                );
+            }
         }
+        // Only the bounds of the union are wanted: the 2 corners of each mesh's world box.
         let mut all = TriangleMesh::default();
-        let mut bytes = 0;
-        for m in &scene.meshes {
-            // Only the bounds and counts of the union are wanted: no copy of the buffers.
-            all.positions.extend(bounds(&m.mesh));
-            bytes += m.mesh.bytes();
+        for [lo, hi] in scene.mesh_bounds() {
+            all.positions
+                .extend([lo, hi].map(|p| p.as_vec3().to_array()));
         }
-        let triangles: usize = scene.meshes.iter().map(|m| m.mesh.triangles.len()).sum();
+        let bytes = scene.mesh_bytes();
+        let triangles = scene.triangle_count();
+        let placed = scene.placed_triangle_count();
+        let instanced = if placed == triangles {
+            String::new()
+        } else {
+            format!(" unique, {placed} placed (instances counted)")
+        };
         out += &format!(
-            "total:\n  triangles  {triangles}\n  bounds     {}\n  dropped    {}\n  repaired   {}\n  memory     {}\n",
+            "total:\n  triangles  {triangles}{instanced}\n  bounds     {}\n  dropped    {}\n  repaired   {}\n  memory     {}\n",
             show_bounds(&all),
             dropped(&scene.mesh_report()),
             repaired(&scene.mesh_report()),

@@ -172,6 +172,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         .time("build BVH", || scene.build_embree_with(&device, bvh))
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     stats.memory.triangles = scene.triangle_count();
+    stats.memory.placed_triangles = scene.placed_triangle_count();
     stats.memory.mesh_bytes = scene.mesh_bytes();
     stats.memory.bvh_bytes = device.memory().current;
     stats.memory.bvh_build_peak_bytes = device.memory().peak;

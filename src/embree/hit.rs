@@ -1,5 +1,8 @@
 //! What a query returns: the hit point, its normals and the shading normal's derivatives.
 
+use super::ffi;
+use super::ray::Ray;
+use super::scene::Scene;
 use glam::DVec3;
 
 /// A ray-triangle hit, with the surface data the renderer needs for shading and for propagating
@@ -10,7 +13,8 @@ use glam::DVec3;
 pub struct Hit {
     /// Ray parameter of the hit (in units of the ray direction's length).
     pub t: f64,
-    /// Index of the mesh (Embree geometry id, in the order the meshes were added).
+    /// Index of the mesh or instance (Embree's top-level geometry id, in the order they were
+    /// added).
     pub geom_id: u32,
     /// Index of the triangle within its mesh.
     pub prim_id: u32,
@@ -51,5 +55,87 @@ impl Hit {
     pub fn normal_differential(&self, dp: DVec3) -> DVec3 {
         let (du, dv) = self.barycentric_differential(dp);
         self.dn_du * du + self.dn_dv * dv
+    }
+}
+
+impl Scene {
+    /// Completes a hit from Embree's ids, barycentrics and distance with this layer's mesh data.
+    /// `inst_id` is Embree's `instID[0]` (the instance geometry hit, or invalid for a mesh
+    /// placed directly); the hit's `geom_id` is the top-level geometry either way.
+    ///
+    /// Embree answers in single precision: on a large triangle its barycentrics place the hit
+    /// only to within ~1e-7 of the triangle's size, too coarse for differentials and finite
+    /// differences. The hit is therefore refined in double precision against the triangle's
+    /// plane in world space (Embree's answer is kept where the ray is parallel to the plane).
+    /// An instance's triangle is mapped to world space first: barycentrics survive affine maps,
+    /// so positions, their derivatives and the normals (mapped by the inverse transpose) come
+    /// out in world space, and so do the differentials built from them.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn make_hit(
+        &self,
+        ray: &Ray,
+        geom_id: u32,
+        inst_id: u32,
+        prim_id: u32,
+        u: f32,
+        v: f32,
+        t: f32,
+    ) -> Hit {
+        let geom_id = if inst_id != ffi::INVALID_GEOMETRY_ID {
+            inst_id
+        } else {
+            geom_id
+        };
+        let ([p0, p1, p2], normals) = self.geometries[geom_id as usize].world_triangle(prim_id);
+        let dp_du = p1 - p0;
+        let dp_dv = p2 - p0;
+        let cross = dp_du.cross(dp_dv);
+        let geometric_normal = cross.normalize();
+        let (mut u, mut v, mut t) = (u as f64, v as f64, t as f64);
+        let denom = ray.direction.dot(cross);
+        if denom.abs() > 1e-12 * ray.direction.length() * cross.length() {
+            let t64 = (p0 - ray.origin).dot(cross) / denom;
+            let w = ray.origin + ray.direction * t64 - p0;
+            let area = cross.length_squared();
+            let u64 = w.cross(dp_dv).dot(cross) / area;
+            let v64 = dp_du.cross(w).dot(cross) / area;
+            if t64.is_finite() && u64.is_finite() && v64.is_finite() {
+                // Stay on the triangle Embree found (rounding can step just outside it).
+                u = u64.clamp(0.0, 1.0);
+                v = v64.clamp(0.0, 1.0 - u);
+                t = t64;
+            }
+        }
+        let (shading_normal, dn_du, dn_dv) = match normals {
+            None => (geometric_normal, DVec3::ZERO, DVec3::ZERO),
+            Some([n0, n1, n2]) => {
+                let unnormalised = n0 * (1.0 - u - v) + n1 * u + n2 * v;
+                let length = unnormalised.length();
+                let n = unnormalised / length;
+                // d(N/|N|) = (dN - (dN . n) n) / |N|
+                let project = |dn: DVec3| (dn - n * dn.dot(n)) / length;
+                let n = if n.dot(geometric_normal) < 0.0 { -n } else { n };
+                let sign = if unnormalised.dot(geometric_normal) < 0.0 {
+                    -1.0
+                } else {
+                    1.0
+                };
+                (n, sign * project(n1 - n0), sign * project(n2 - n0))
+            }
+        };
+        Hit {
+            t,
+            geom_id,
+            prim_id,
+            u,
+            v,
+            position: p0 + dp_du * u + dp_dv * v,
+            geometric_normal,
+            shading_normal,
+            dn_du,
+            dn_dv,
+            dp_du,
+            dp_dv,
+        }
     }
 }

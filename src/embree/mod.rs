@@ -2,7 +2,8 @@
 //!
 //! Everything above this module sees safe types:
 //! - [`Device`]: an Embree device whose error callback turns Embree errors into [`EmbreeError`];
-//! - [`SceneBuilder`] takes triangle meshes (shared buffers) and commits them into an immutable,
+//! - [`SceneBuilder`] takes triangle meshes (shared buffers, not copied) and instances of them
+//!   (one BVH per mesh) and commits them into an immutable,
 //!   `Send + Sync` [`Scene`];
 //! - [`Scene::intersect`] / [`Scene::occluded`] for single rays and [`Scene::intersect16`] /
 //!   [`Scene::occluded16`] for 16-wide packets, answering `Option<Hit>` / `bool`.
@@ -25,6 +26,7 @@ use v4 as api;
 mod device;
 mod ffi;
 mod hit;
+mod mesh;
 mod query;
 mod ray;
 mod scene;
@@ -35,9 +37,10 @@ mod v4;
 
 pub use device::{Device, EmbreeError, EmbreeMemory};
 pub use hit::Hit;
+pub use mesh::TriangleMesh;
 pub use query::RawRays;
 pub use ray::Ray;
-pub use scene::{BvhQuality, BvhSettings, Scene, SceneBuilder, TriangleMesh};
+pub use scene::{BvhQuality, BvhSettings, Scene, SceneBuilder};
 
 /// Width of the ray packets traced by [`Scene::intersect16`] and [`Scene::occluded16`].
 pub const PACKET_WIDTH: usize = 16;

@@ -83,8 +83,17 @@ impl Scene {
         // aligned locals that outlive the call.
         unsafe { api::intersect1(self.raw, &mut rayhit, &mut args) };
         let hit = &rayhit.hit;
-        (hit.geomID != ffi::INVALID_GEOMETRY_ID)
-            .then(|| self.make_hit(ray, hit.geomID, hit.primID, hit.u, hit.v, rayhit.ray.tfar))
+        (hit.geomID != ffi::INVALID_GEOMETRY_ID).then(|| {
+            self.make_hit(
+                ray,
+                hit.geomID,
+                hit.instID[0],
+                hit.primID,
+                hit.u,
+                hit.v,
+                rayhit.ray.tfar,
+            )
+        })
     }
 
     /// Whether anything blocks `ray` within `[tnear, tfar]`. An invalid ray counts as a miss
@@ -107,6 +116,8 @@ impl Scene {
     /// `hits[i]` answers `rays[i]`; invalid rays are answered `None` and counted.
     pub fn intersect16(&self, rays: &[Ray], coherent: bool, hits: &mut [Option<Hit>]) {
         assert!(rays.len() <= PACKET_WIDTH && hits.len() >= rays.len());
+        // As in `occluded16`: no coherent packets through instances.
+        let coherent = coherent && !self.has_instances();
         let mut packet = RayHit16::default();
         let mut valid = Valid16::default();
         for (lane, ray) in rays.iter().enumerate() {
@@ -130,6 +141,7 @@ impl Scene {
                 self.make_hit(
                     &rays[lane],
                     h.geomID[lane],
+                    h.instID[0][lane],
                     h.primID[lane],
                     h.u[lane],
                     h.v[lane],
@@ -143,6 +155,10 @@ impl Scene {
     /// Invalid rays are answered `false` (a miss) and counted.
     pub fn occluded16(&self, rays: &[Ray], coherent: bool, blocked: &mut [bool]) {
         assert!(rays.len() <= PACKET_WIDTH && blocked.len() >= rays.len());
+        // Debian's Embree 3.13.5 can loop forever in a coherent 16-wide occlusion query through
+        // an instance (seen on a shadow packet of two active lanes); the incoherent path does
+        // not, so scenes with instances trace their packets as incoherent.
+        let coherent = coherent && !self.has_instances();
         let mut packet = Ray16::default();
         let mut valid = Valid16::default();
         for (lane, ray) in rays.iter().enumerate() {

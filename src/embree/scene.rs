@@ -2,109 +2,63 @@
 
 use super::device::{Device, DeviceHandle, EmbreeError};
 use super::ffi;
-use super::hit::Hit;
-use super::ray::Ray;
-use glam::DVec3;
+use super::mesh::TriangleMesh;
+use glam::{DAffine3, DMat3, DVec3};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
-/// A triangle mesh as Embree takes it: vertex positions, optional per-vertex normals (for
-/// interpolated shading normals) and triangles as vertex index triples.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct TriangleMesh {
-    /// Vertex positions.
-    pub positions: Vec<[f32; 3]>,
-    /// Per-vertex normals (same length as `positions`), or `None` for flat shading.
-    pub normals: Option<Vec<[f32; 3]>>,
-    /// Triangles, counter-clockwise seen from the side the geometric normal points to.
-    pub triangles: Vec<[u32; 3]>,
+/// A geometry of the committed scene: a mesh placed directly (its own vertices are world
+/// space) or an instance of a mesh (one BVH per mesh, shared by all its instances).
+///
+/// Embree reads the mesh's positions and triangles in place and loads the last vertex with a
+/// 16-byte read, 4 bytes past its end, so `positions` must have at least one element of spare
+/// capacity ([`TriangleMesh::reserve_padding`]); a mesh that lacks it is copied into one that
+/// has it.
+pub(super) struct Geometry {
+    pub(super) mesh: Arc<TriangleMesh>,
+    /// `None` for a mesh placed directly.
+    pub(super) instance: Option<Placement>,
 }
 
-impl TriangleMesh {
-    /// Makes sure `positions` has one element of spare capacity, zeroed: Embree reads 4 bytes
-    /// past the last vertex, and a mesh with this padding is shared with Embree without a copy
-    /// (see [`SceneBuilder::add_mesh`]). Loaders that know the vertex count allocate it upfront.
-    pub fn reserve_padding(&mut self) {
-        self.positions.reserve(1);
-        self.positions.spare_capacity_mut()[0].write([0.0; 3]);
-    }
+/// Where an instance puts its mesh: `world = to_world * local`.
+pub(super) struct Placement {
+    to_world: DAffine3,
+    /// `to_world`'s inverse transpose (linear part): what normals transform with.
+    normal_matrix: DMat3,
+}
 
-    /// Bytes of the mesh's data: 12 per position, per normal and per triangle (three 32-bit
-    /// indices). The PLY loader reserves exactly this (plus the padding position); the OBJ
-    /// loader's buffers grow as it reads and may hold up to twice as much.
-    pub fn bytes(&self) -> u64 {
-        let normals = self.normals.as_ref().map_or(0, Vec::len);
-        12 * (self.positions.len() + normals + self.triangles.len()) as u64
-    }
-
-    /// Checks what Embree would otherwise silently drop or mis-handle: non-finite or huge
-    /// vertices, out-of-range indices, zero-area triangles, mismatched or zero normals.
-    pub fn validate(&self) -> Result<(), String> {
-        let finite = |p: &[f32; 3]| p.iter().all(|c| c.is_finite() && c.abs() < 1.0e18);
-        // Embree drops such vertices' triangles silently, and a huge one trips its assertions.
-        if let Some(i) = self.positions.iter().position(|p| !finite(p)) {
-            return Err(format!("vertex {i} is not finite: {:?}", self.positions[i]));
+impl Geometry {
+    /// Triangle `prim`'s vertices in world space, and its vertex normals (world space, not
+    /// normalised: an affine map keeps barycentric interpolation, so interpolating these
+    /// equals mapping the interpolated local normal).
+    pub(super) fn world_triangle(&self, prim: u32) -> ([DVec3; 3], Option<[DVec3; 3]>) {
+        let tri = self.mesh.triangles[prim as usize];
+        let vertex = |k: u32| DVec3::from(self.mesh.positions[k as usize].map(f64::from));
+        let normal = |n: &Vec<[f32; 3]>, k: u32| DVec3::from(n[k as usize].map(f64::from));
+        let p = tri.map(vertex);
+        let n = self
+            .mesh
+            .normals
+            .as_ref()
+            .map(|n| tri.map(|k| normal(n, k)));
+        match &self.instance {
+            None => (p, n),
+            Some(placement) => (
+                p.map(|x| placement.to_world.transform_point3(x)),
+                n.map(|n| n.map(|x| placement.normal_matrix * x)),
+            ),
         }
-        if self.positions.len() >= u32::MAX as usize {
-            return Err("too many vertices".into());
-        }
-        if let Some(normals) = &self.normals {
-            if normals.len() != self.positions.len() {
-                return Err(format!(
-                    "{} normals for {} vertices",
-                    normals.len(),
-                    self.positions.len()
-                ));
-            }
-            if let Some(i) = normals
-                .iter()
-                .position(|n| !finite(n) || n.iter().all(|c| *c == 0.0))
-            {
-                return Err(format!(
-                    "normal {i} is zero or not finite: {:?}",
-                    normals[i]
-                ));
-            }
-        }
-        let n = self.positions.len() as u32;
-        for (i, tri) in self.triangles.iter().enumerate() {
-            if let Some(bad) = tri.iter().find(|&&index| index >= n) {
-                return Err(format!(
-                    "triangle {i} uses vertex {bad}, but the mesh has {n} vertices"
-                ));
-            }
-            let [a, b, c] = tri.map(|k| DVec3::from(self.positions[k as usize].map(f64::from)));
-            let area2 = (b - a).cross(c - a).length();
-            let scale = (b - a).length().max((c - a).length()).max(1e-30);
-            if area2.is_nan() || area2 <= 1e-12 * scale * scale {
-                return Err(format!(
-                    "triangle {i} is degenerate (zero area): {:?} {:?} {:?}",
-                    a.to_array(),
-                    b.to_array(),
-                    c.to_array()
-                ));
-            }
-        }
-        Ok(())
     }
 }
 
-/// A mesh as the committed scene keeps it: Embree reads the positions and triangles in place.
-/// Embree loads the last vertex with a 16-byte read, 4 bytes past its end, so `positions` must
-/// have at least one element of spare capacity ([`TriangleMesh::reserve_padding`]); a mesh that
-/// lacks it is copied into one that has it.
-struct MeshBuffers {
-    mesh: Arc<TriangleMesh>,
-}
-
-impl MeshBuffers {
-    fn vertex(&self, index: u32) -> DVec3 {
-        DVec3::from(self.mesh.positions[index as usize].map(f64::from))
+/// Pads `mesh` for Embree (a copy) unless it already is.
+fn padded(mesh: Arc<TriangleMesh>) -> Arc<TriangleMesh> {
+    if mesh.positions.capacity() > mesh.positions.len() {
+        return mesh;
     }
-
-    fn triangle(&self, prim: u32) -> [u32; 3] {
-        self.mesh.triangles[prim as usize]
-    }
+    let mut copy = (*mesh).clone();
+    copy.reserve_padding();
+    Arc::new(copy)
 }
 
 /// How much time Embree's BVH build spends on the tree's quality (`RTCBuildQuality`): `high`
@@ -124,7 +78,7 @@ pub enum BvhQuality {
 /// Collects meshes; [`SceneBuilder::commit`] turns them into an immutable [`Scene`].
 pub struct SceneBuilder {
     device: Device,
-    meshes: Vec<MeshBuffers>,
+    geometries: Vec<Geometry>,
     settings: BvhSettings,
 }
 
@@ -145,7 +99,7 @@ impl SceneBuilder {
     pub fn new(device: &Device) -> Self {
         SceneBuilder {
             device: device.clone(),
-            meshes: Vec::new(),
+            geometries: Vec::new(),
             settings: BvhSettings::default(),
         }
     }
@@ -160,108 +114,220 @@ impl SceneBuilder {
     /// committed scene shares the mesh's buffers with the caller rather than copying them
     /// (unless its positions lack the padding Embree reads past the last vertex).
     pub fn add_mesh(&mut self, mesh: impl Into<Arc<TriangleMesh>>) -> Result<u32, EmbreeError> {
-        let mut mesh: Arc<TriangleMesh> = mesh.into();
+        let mesh: Arc<TriangleMesh> = mesh.into();
         mesh.validate().map_err(EmbreeError::InvalidMesh)?;
-        if mesh.positions.capacity() <= mesh.positions.len() {
-            let mut padded = (*mesh).clone();
-            padded.reserve_padding();
-            mesh = Arc::new(padded);
-        }
-        self.meshes.push(MeshBuffers { mesh });
-        Ok(self.meshes.len() as u32 - 1)
+        self.geometries.push(Geometry {
+            mesh: padded(mesh),
+            instance: None,
+        });
+        Ok(self.geometries.len() as u32 - 1)
     }
 
-    /// Builds Embree's acceleration structure over the meshes added so far.
+    /// Adds an instance of `mesh` placed by `to_world` and returns its geometry id (counted with
+    /// the meshes). Every instance of the same `Arc` shares one BVH and one copy of the mesh.
+    /// A transform that is not finite or is singular is refused.
+    pub fn add_instance(
+        &mut self,
+        mesh: &Arc<TriangleMesh>,
+        to_world: DAffine3,
+    ) -> Result<u32, EmbreeError> {
+        let linear = to_world.matrix3;
+        let finite = linear.to_cols_array().iter().all(|c| c.is_finite())
+            && to_world.translation.is_finite();
+        let scale = linear.x_axis.length() * linear.y_axis.length() * linear.z_axis.length();
+        if !finite || scale == 0.0 || linear.determinant().abs() <= 1e-12 * scale {
+            return Err(EmbreeError::InvalidMesh(format!(
+                "the instance transform is singular or not finite: {to_world:?}"
+            )));
+        }
+        // The same mesh is validated (and padded) once, however many instances it has.
+        let mesh = match self
+            .geometries
+            .iter()
+            .find(|g| g.instance.is_some() && Arc::ptr_eq(&g.mesh, mesh))
+        {
+            Some(g) => g.mesh.clone(),
+            None => {
+                mesh.validate().map_err(EmbreeError::InvalidMesh)?;
+                padded(mesh.clone())
+            }
+        };
+        self.geometries.push(Geometry {
+            mesh,
+            instance: Some(Placement {
+                to_world,
+                normal_matrix: linear.inverse().transpose(),
+            }),
+        });
+        Ok(self.geometries.len() as u32 - 1)
+    }
+
+    /// Builds Embree's acceleration structures: one BVH per instanced mesh, and the scene's
+    /// over its meshes and instances.
     pub fn commit(self) -> Result<Scene, EmbreeError> {
         let device = self.device.handle.clone();
         device.take_error()?;
-        // SAFETY: the device is valid for the lifetime of `device`, which the scene keeps.
-        let raw = unsafe { ffi::rtcNewScene(device.raw) };
-        // From here on the scene owns `raw` and releases it on drop, whatever fails below.
-        let scene = Scene {
-            raw,
+        let settings = self.settings;
+        // From here on the scene owns every raw scene made and releases them on drop, whatever
+        // fails below.
+        let mut scene = Scene {
+            raw: std::ptr::null_mut(),
             _device: device.clone(),
-            meshes: self.meshes,
+            geometries: self.geometries,
+            prototypes: Vec::new(),
             invalid_rays: AtomicU64::new(0),
         };
-        if raw.is_null() {
-            return Err(device.take_error().err().unwrap_or(EmbreeError::Embree {
-                code: 0,
-                message: "rtcNewScene failed".into(),
-            }));
-        }
-        let quality = match self.settings.quality {
-            BvhQuality::Low => ffi::RTCBuildQuality::RTC_BUILD_QUALITY_LOW,
-            BvhQuality::Medium => ffi::RTCBuildQuality::RTC_BUILD_QUALITY_MEDIUM,
-            BvhQuality::High => ffi::RTCBuildQuality::RTC_BUILD_QUALITY_HIGH,
-        };
-        let mut flags = ffi::RTCSceneFlags::RTC_SCENE_FLAG_NONE.0;
-        if self.settings.compact {
-            flags |= ffi::RTCSceneFlags::RTC_SCENE_FLAG_COMPACT.0;
-        }
-        if self.settings.robust {
-            flags |= ffi::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST.0;
-        }
-        // SAFETY: `raw` is a valid scene.
-        unsafe {
-            ffi::rtcSetSceneBuildQuality(raw, quality);
-            ffi::rtcSetSceneFlags(raw, ffi::RTCSceneFlags(flags));
-        }
-        for (id, buffers) in scene.meshes.iter().enumerate() {
-            let mesh = &buffers.mesh;
-            let vertex_count = mesh.positions.len();
-            let triangle_count = mesh.triangles.len();
-            // SAFETY: the buffers live in the `Arc`s of `scene.meshes`, which the scene keeps
-            // (their heap storage never moves: nothing can mutate a shared `Arc`) until after
-            // rtcReleaseScene; `add_mesh` made sure the positions have spare capacity, so the 4
-            // bytes Embree reads past the last vertex are allocated; `[f32; 3]` and `[u32; 3]`
-            // are 12 bytes with no padding, the strides given; the indices were validated
-            // against the vertex count.
+        scene.raw = new_scene(&device, settings)?;
+        // The BVH of each instanced mesh, made once: (the mesh, its committed scene).
+        let mut made: Vec<(*const TriangleMesh, ffi::RTCScene)> = Vec::new();
+        for (id, g) in scene.geometries.iter().enumerate() {
+            let Some(placement) = &g.instance else {
+                attach_triangles(&device, scene.raw, &g.mesh, id as u32)?;
+                continue;
+            };
+            let key = Arc::as_ptr(&g.mesh);
+            let prototype = match made.iter().find(|(k, _)| *k == key) {
+                Some((_, p)) => *p,
+                None => {
+                    let p = new_scene(&device, settings)?;
+                    scene.prototypes.push(p);
+                    attach_triangles(&device, p, &g.mesh, 0)?;
+                    // SAFETY: `p` is a valid scene whose one geometry is committed.
+                    unsafe { ffi::rtcCommitScene(p) };
+                    device.take_error()?;
+                    made.push((key, p));
+                    p
+                }
+            };
+            let m = placement.to_world;
+            // Column-major 3x4: the three columns of the linear part, then the translation.
+            let columns: [f32; 12] = [
+                m.matrix3.x_axis,
+                m.matrix3.y_axis,
+                m.matrix3.z_axis,
+                m.translation,
+            ]
+            .map(|c| [c.x as f32, c.y as f32, c.z as f32])
+            .concat()
+            .try_into()
+            .expect("12 floats");
+            // SAFETY: `prototype` is a committed scene owned by `scene.prototypes` until after the
+            // top-level scene is released; `columns` is read (copied) during the call.
             unsafe {
                 let geometry = ffi::rtcNewGeometry(
                     device.raw,
-                    ffi::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE,
+                    ffi::RTCGeometryType::RTC_GEOMETRY_TYPE_INSTANCE,
                 );
                 if geometry.is_null() {
-                    break;
+                    return Err(device_error(&device, "rtcNewGeometry (instance) failed"));
                 }
-                ffi::rtcSetSharedGeometryBuffer(
+                ffi::rtcSetGeometryInstancedScene(geometry, prototype);
+                ffi::rtcSetGeometryTransform(
                     geometry,
-                    ffi::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
                     0,
-                    ffi::RTCFormat::RTC_FORMAT_FLOAT3,
-                    mesh.positions.as_ptr() as *const std::ffi::c_void,
-                    0,
-                    12,
-                    vertex_count,
-                );
-                ffi::rtcSetSharedGeometryBuffer(
-                    geometry,
-                    ffi::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
-                    0,
-                    ffi::RTCFormat::RTC_FORMAT_UINT3,
-                    mesh.triangles.as_ptr() as *const std::ffi::c_void,
-                    0,
-                    12,
-                    triangle_count,
+                    ffi::RTCFormat::RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR,
+                    columns.as_ptr() as *const std::ffi::c_void,
                 );
                 ffi::rtcCommitGeometry(geometry);
-                ffi::rtcAttachGeometryByID(raw, geometry, id as u32);
+                ffi::rtcAttachGeometryByID(scene.raw, geometry, id as u32);
                 ffi::rtcReleaseGeometry(geometry);
             }
         }
-        // SAFETY: `raw` is a valid scene whose geometries are all committed.
-        unsafe { ffi::rtcCommitScene(raw) };
+        // SAFETY: `scene.raw` is a valid scene whose geometries are all committed.
+        unsafe { ffi::rtcCommitScene(scene.raw) };
         device.take_error()?;
         Ok(scene)
     }
+}
+
+/// The error Embree reported, or `what` when it reported none.
+fn device_error(device: &DeviceHandle, what: &str) -> EmbreeError {
+    device.take_error().err().unwrap_or(EmbreeError::Embree {
+        code: 0,
+        message: what.into(),
+    })
+}
+
+/// A new, empty scene built with `settings`; the caller releases it.
+fn new_scene(device: &DeviceHandle, settings: BvhSettings) -> Result<ffi::RTCScene, EmbreeError> {
+    // SAFETY: the device is valid while `device` is.
+    let raw = unsafe { ffi::rtcNewScene(device.raw) };
+    if raw.is_null() {
+        return Err(device_error(device, "rtcNewScene failed"));
+    }
+    let quality = match settings.quality {
+        BvhQuality::Low => ffi::RTCBuildQuality::RTC_BUILD_QUALITY_LOW,
+        BvhQuality::Medium => ffi::RTCBuildQuality::RTC_BUILD_QUALITY_MEDIUM,
+        BvhQuality::High => ffi::RTCBuildQuality::RTC_BUILD_QUALITY_HIGH,
+    };
+    let mut flags = ffi::RTCSceneFlags::RTC_SCENE_FLAG_NONE.0;
+    if settings.compact {
+        flags |= ffi::RTCSceneFlags::RTC_SCENE_FLAG_COMPACT.0;
+    }
+    if settings.robust {
+        flags |= ffi::RTCSceneFlags::RTC_SCENE_FLAG_ROBUST.0;
+    }
+    // SAFETY: `raw` is a valid scene.
+    unsafe {
+        ffi::rtcSetSceneBuildQuality(raw, quality);
+        ffi::rtcSetSceneFlags(raw, ffi::RTCSceneFlags(flags));
+    }
+    Ok(raw)
+}
+
+/// Attaches `mesh` to `scene` as triangle geometry `id`, reading its buffers in place.
+fn attach_triangles(
+    device: &DeviceHandle,
+    scene: ffi::RTCScene,
+    mesh: &Arc<TriangleMesh>,
+    id: u32,
+) -> Result<(), EmbreeError> {
+    // SAFETY: the caller keeps `mesh` (an `Arc` held by the committed scene's geometries) alive
+    // until after `scene` is released, and nothing can mutate a shared `Arc`, so the buffers
+    // never move; `padded` made sure the positions have spare capacity, so the 4 bytes Embree
+    // reads past the last vertex are allocated; `[f32; 3]` and `[u32; 3]` are 12 bytes with no
+    // padding, the strides given; the indices were validated against the vertex count.
+    unsafe {
+        let geometry =
+            ffi::rtcNewGeometry(device.raw, ffi::RTCGeometryType::RTC_GEOMETRY_TYPE_TRIANGLE);
+        if geometry.is_null() {
+            return Err(device_error(device, "rtcNewGeometry (triangles) failed"));
+        }
+        ffi::rtcSetSharedGeometryBuffer(
+            geometry,
+            ffi::RTCBufferType::RTC_BUFFER_TYPE_VERTEX,
+            0,
+            ffi::RTCFormat::RTC_FORMAT_FLOAT3,
+            mesh.positions.as_ptr() as *const std::ffi::c_void,
+            0,
+            12,
+            mesh.positions.len(),
+        );
+        ffi::rtcSetSharedGeometryBuffer(
+            geometry,
+            ffi::RTCBufferType::RTC_BUFFER_TYPE_INDEX,
+            0,
+            ffi::RTCFormat::RTC_FORMAT_UINT3,
+            mesh.triangles.as_ptr() as *const std::ffi::c_void,
+            0,
+            12,
+            mesh.triangles.len(),
+        );
+        ffi::rtcCommitGeometry(geometry);
+        ffi::rtcAttachGeometryByID(scene, geometry, id);
+        ffi::rtcReleaseGeometry(geometry);
+    }
+    device.take_error()
 }
 
 /// A committed Embree scene: immutable, and safe to query from many threads at once.
 pub struct Scene {
     pub(super) raw: ffi::RTCScene,
     _device: Arc<DeviceHandle>,
-    meshes: Vec<MeshBuffers>,
+    /// Geometry `i` of the top-level scene.
+    pub(super) geometries: Vec<Geometry>,
+    /// The scenes of the instanced meshes (one per mesh), released after `raw`.
+    prototypes: Vec<ffi::RTCScene>,
     pub(super) invalid_rays: AtomicU64,
 }
 
@@ -278,13 +344,23 @@ impl Drop for Scene {
             // (fields drop after this) and before the device (held by `_device`).
             unsafe { ffi::rtcReleaseScene(self.raw) };
         }
+        for &p in &self.prototypes {
+            // SAFETY: each came from rtcNewScene and is released once, after the top-level scene
+            // whose instances referenced it, before its mesh buffers and the device.
+            unsafe { ffi::rtcReleaseScene(p) };
+        }
     }
 }
 
 impl Scene {
-    /// Number of meshes.
+    /// Number of geometries: meshes placed directly and instances.
     pub fn mesh_count(&self) -> usize {
-        self.meshes.len()
+        self.geometries.len()
+    }
+
+    /// Whether any geometry is an instance.
+    pub(super) fn has_instances(&self) -> bool {
+        !self.prototypes.is_empty()
     }
 
     /// Number of rays rejected so far because Embree could not take them (answered as misses).
@@ -294,76 +370,5 @@ impl Scene {
 
     pub(super) fn count_invalid(&self) {
         self.invalid_rays.fetch_add(1, Ordering::Relaxed);
-    }
-
-    /// Completes a hit from Embree's ids, barycentrics and distance with this layer's mesh data.
-    ///
-    /// Embree answers in single precision: on a large triangle its barycentrics place the hit
-    /// only to within ~1e-7 of the triangle's size, too coarse for differentials and finite
-    /// differences. The hit is therefore refined in double precision against the triangle's
-    /// plane (Embree's answer is kept where the ray is parallel to the plane).
-    pub(super) fn make_hit(
-        &self,
-        ray: &Ray,
-        geom_id: u32,
-        prim_id: u32,
-        u: f32,
-        v: f32,
-        t: f32,
-    ) -> Hit {
-        let mesh = &self.meshes[geom_id as usize];
-        let tri = mesh.triangle(prim_id);
-        let p0 = mesh.vertex(tri[0]);
-        let dp_du = mesh.vertex(tri[1]) - p0;
-        let dp_dv = mesh.vertex(tri[2]) - p0;
-        let cross = dp_du.cross(dp_dv);
-        let geometric_normal = cross.normalize();
-        let (mut u, mut v, mut t) = (u as f64, v as f64, t as f64);
-        let denom = ray.direction.dot(cross);
-        if denom.abs() > 1e-12 * ray.direction.length() * cross.length() {
-            let t64 = (p0 - ray.origin).dot(cross) / denom;
-            let w = ray.origin + ray.direction * t64 - p0;
-            let area = cross.length_squared();
-            let u64 = w.cross(dp_dv).dot(cross) / area;
-            let v64 = dp_du.cross(w).dot(cross) / area;
-            if t64.is_finite() && u64.is_finite() && v64.is_finite() {
-                // Stay on the triangle Embree found (rounding can step just outside it).
-                u = u64.clamp(0.0, 1.0);
-                v = v64.clamp(0.0, 1.0 - u);
-                t = t64;
-            }
-        }
-        let (shading_normal, dn_du, dn_dv) = match &mesh.mesh.normals {
-            None => (geometric_normal, DVec3::ZERO, DVec3::ZERO),
-            Some(normals) => {
-                let [n0, n1, n2] = tri.map(|k| DVec3::from(normals[k as usize].map(f64::from)));
-                let unnormalised = n0 * (1.0 - u - v) + n1 * u + n2 * v;
-                let length = unnormalised.length();
-                let n = unnormalised / length;
-                // d(N/|N|) = (dN - (dN . n) n) / |N|
-                let project = |dn: DVec3| (dn - n * dn.dot(n)) / length;
-                let n = if n.dot(geometric_normal) < 0.0 { -n } else { n };
-                let sign = if unnormalised.dot(geometric_normal) < 0.0 {
-                    -1.0
-                } else {
-                    1.0
-                };
-                (n, sign * project(n1 - n0), sign * project(n2 - n0))
-            }
-        };
-        Hit {
-            t,
-            geom_id,
-            prim_id,
-            u,
-            v,
-            position: p0 + dp_du * u + dp_dv * v,
-            geometric_normal,
-            shading_normal,
-            dn_du,
-            dn_dv,
-            dp_du,
-            dp_dv,
-        }
     }
 }

@@ -63,12 +63,8 @@ pub fn radiance_bound(scene: &Scene, min_radius: f64) -> f64 {
                 let d = scene
                     .meshes
                     .iter()
-                    .flat_map(|m| m.mesh.triangles.iter().map(move |t| (m, t)))
-                    .map(|(m, t)| {
-                        let [a, b, c] =
-                            t.map(|k| DVec3::from(m.mesh.positions[k as usize].map(f64::from)));
-                        (closest_on_triangle(position, a, b, c) - position).length()
-                    })
+                    .flat_map(|m| m.world_triangles())
+                    .map(|[a, b, c]| (closest_on_triangle(position, a, b, c) - position).length())
                     .fold(f64::INFINITY, f64::min);
                 direct += intensity.max_element() / (d * d).max(1e-12) / PI;
             }

@@ -79,8 +79,10 @@ pub struct Stats {
 /// Where the memory went (bytes).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct MemoryStats {
-    /// Triangles in the scene (unique: each mesh counted once).
+    /// Triangles in memory (each instanced mesh counted once).
     pub triangles: u64,
+    /// Triangles placed in the scene (each instance counted): what the rays see.
+    pub placed_triangles: u64,
     /// Mesh buffers (positions, normals, indices), shared between the scene and Embree.
     pub mesh_bytes: u64,
     /// What Embree holds after the build (its BVH), from its memory monitor.
@@ -196,11 +198,12 @@ impl Stats {
         if m.peak_resident_bytes > 0 {
             let mb = |b: u64| b as f64 / 1e6;
             out += &format!(
-                "  memory: peak resident {:.1} MB ({:.0} bytes/triangle over {} triangles); \
-                 meshes {:.1} MB, Embree BVH {:.1} MB (build peak {:.1} MB)\n",
+                "  memory: peak resident {:.1} MB ({:.0} bytes/triangle over {} unique triangles, \
+                 {} placed); meshes {:.1} MB, Embree BVH {:.1} MB (build peak {:.1} MB)\n",
                 mb(m.peak_resident_bytes),
                 m.peak_bytes_per_triangle,
                 m.triangles,
+                m.placed_triangles,
                 mb(m.mesh_bytes),
                 mb(m.bvh_bytes),
                 mb(m.bvh_build_peak_bytes)

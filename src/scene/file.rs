@@ -4,6 +4,7 @@
 //! panics on bad input.
 
 use crate::scene::camera::Camera;
+use crate::scene::instances::{InstanceDesc, MeshDesc};
 use crate::scene::mesh_file::{load_mesh_with_report, MeshReport};
 use crate::scene::shapes;
 use crate::scene::{Light, Material, Scene, SceneMesh};
@@ -35,6 +36,10 @@ struct SceneFile {
     lights: Vec<LightDesc>,
     #[serde(default)]
     shapes: Vec<ShapeDesc>,
+    #[serde(default)]
+    meshes: BTreeMap<String, MeshDesc>,
+    #[serde(default)]
+    instances: Vec<InstanceDesc>,
 }
 
 #[derive(Deserialize)]
@@ -275,6 +280,49 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
             mesh: Arc::new(mesh),
             material,
             report,
+            transform: None,
+        });
+    }
+
+    // Each instanced mesh is loaded once, by its first instance, and shared by the others;
+    // its load report goes with that first instance only, so that counts are not repeated.
+    let mut loaded: BTreeMap<&str, Arc<crate::embree::TriangleMesh>> = BTreeMap::new();
+    for (i, inst) in file.instances.iter().enumerate() {
+        let field = format!("instances[{i}]");
+        let to_world = inst.transform(&field)?;
+        let material = material(&field, &inst.material)?;
+        let Some(desc) = file.meshes.get(&inst.mesh) else {
+            let known: Vec<&str> = file.meshes.keys().map(String::as_str).collect();
+            return Err(format!(
+                "{field}.mesh: unknown mesh '{}' (defined in [meshes]: {})",
+                inst.mesh,
+                if known.is_empty() {
+                    "none".to_string()
+                } else {
+                    known.join(", ")
+                }
+            ));
+        };
+        let mut report = MeshReport::default();
+        let mesh = match loaded.get(inst.mesh.as_str()) {
+            Some(mesh) => mesh.clone(),
+            None => {
+                let path = base.join(&desc.file);
+                let mut m = load_mesh_with_report(&path)
+                    .map_err(|e| format!("meshes.{}.file: {e}", inst.mesh))?;
+                report = m.report;
+                m.mesh.reserve_padding();
+                let mesh = Arc::new(m.mesh);
+                loaded.insert(&inst.mesh, mesh.clone());
+                mesh
+            }
+        };
+        meshes.push(SceneMesh {
+            name: format!("{field} (instance of mesh {})", inst.mesh),
+            mesh,
+            material,
+            report,
+            transform: Some(to_world),
         });
     }
 
@@ -335,6 +383,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                     mesh: Arc::new(shapes::quad(c, u, v)),
                     material: Material::Emitter { radiance },
                     report: MeshReport::default(),
+                    transform: None,
                 });
                 Light::Quad {
                     corner: c,

@@ -17,21 +17,26 @@ pub fn fnv1a(mut hash: u64, bytes: &[u8]) -> u64 {
     hash
 }
 
-/// The mesh files a scene file names (`[[shapes]]` of type "mesh"), resolved against its
-/// folder, in the file's order.
+/// The mesh files a scene file names (`[[shapes]]` of type "mesh", then the instanced
+/// `[meshes.NAME]` by name), resolved against its folder, in the file's order.
 fn mesh_files(text: &str, base: &Path) -> Vec<PathBuf> {
     let Ok(value) = text.parse::<toml::Table>() else {
         return Vec::new();
     };
-    let Some(shapes) = value.get("shapes").and_then(|s| s.as_array()) else {
-        return Vec::new();
-    };
-    shapes
-        .iter()
+    let shapes = value
+        .get("shapes")
+        .and_then(|s| s.as_array())
+        .into_iter()
+        .flatten()
         .filter(|s| s.get("type").and_then(|t| t.as_str()) == Some("mesh"))
-        .filter_map(|s| s.get("file").and_then(|f| f.as_str()))
-        .map(|f| base.join(f))
-        .collect()
+        .filter_map(|s| s.get("file").and_then(|f| f.as_str()));
+    let named = value
+        .get("meshes")
+        .and_then(|m| m.as_table())
+        .into_iter()
+        .flat_map(|t| t.values())
+        .filter_map(|m| m.get("file").and_then(|f| f.as_str()));
+    shapes.chain(named).map(|f| base.join(f)).collect()
 }
 
 /// The content hash of the scene file at `path` and its mesh files.

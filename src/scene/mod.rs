@@ -5,12 +5,13 @@
 pub mod camera;
 pub mod file;
 pub mod hash;
+mod instances;
 pub mod mesh_file;
 pub mod shapes;
 
 use crate::embree::{self, BvhSettings, Device, EmbreeError, TriangleMesh};
 use camera::Camera;
-use glam::DVec3;
+use glam::{DAffine3, DVec3};
 use mesh_file::MeshReport;
 use std::sync::Arc;
 
@@ -124,8 +125,34 @@ pub struct SceneMesh {
     pub mesh: Arc<TriangleMesh>,
     /// Its material.
     pub material: Material,
-    /// What loading its file dropped or repaired (all zero for shapes made in the scene file).
+    /// What loading its file dropped or repaired (all zero for shapes made in the scene file,
+    /// and for every instance of a mesh but the first).
     pub report: MeshReport,
+    /// For an instance, where it puts the (shared) mesh: `world = transform * local`; `None`
+    /// for a mesh whose vertices are in world space.
+    pub transform: Option<DAffine3>,
+}
+
+impl SceneMesh {
+    /// The mesh's vertex positions in world space.
+    pub fn world_positions(&self) -> impl Iterator<Item = DVec3> + '_ {
+        let to_world = self.transform.unwrap_or(DAffine3::IDENTITY);
+        self.mesh
+            .positions
+            .iter()
+            .map(move |p| to_world.transform_point3(DVec3::from(p.map(f64::from))))
+    }
+
+    /// Its triangles' vertices in world space.
+    pub fn world_triangles(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
+        let to_world = self.transform.unwrap_or(DAffine3::IDENTITY);
+        self.mesh.triangles.iter().map(move |t| {
+            t.map(|k| {
+                to_world
+                    .transform_point3(DVec3::from(self.mesh.positions[k as usize].map(f64::from)))
+            })
+        })
+    }
 }
 
 /// A complete scene.
@@ -153,9 +180,11 @@ impl Scene {
     ) -> Result<embree::Scene, EmbreeError> {
         let mut builder = embree::SceneBuilder::new(device).settings(settings);
         for mesh in &self.meshes {
-            builder
-                .add_mesh(mesh.mesh.clone())
-                .map_err(|e| EmbreeError::InvalidMesh(format!("{}: {e}", mesh.name)))?;
+            match mesh.transform {
+                None => builder.add_mesh(mesh.mesh.clone()),
+                Some(to_world) => builder.add_instance(&mesh.mesh, to_world),
+            }
+            .map_err(|e| EmbreeError::InvalidMesh(format!("{}: {e}", mesh.name)))?;
         }
         builder.commit()
     }
@@ -177,17 +206,65 @@ impl Scene {
             .collect()
     }
 
-    /// Triangles over all meshes.
+    /// The distinct meshes in memory: an instanced mesh once, however many instances it has.
+    pub fn unique_meshes(&self) -> Vec<&Arc<TriangleMesh>> {
+        let mut unique: Vec<&Arc<TriangleMesh>> = Vec::new();
+        for m in &self.meshes {
+            if !unique.iter().any(|u| Arc::ptr_eq(u, &m.mesh)) {
+                unique.push(&m.mesh);
+            }
+        }
+        unique
+    }
+
+    /// Triangles in memory (each instanced mesh counted once).
     pub fn triangle_count(&self) -> u64 {
+        let unique = self.unique_meshes();
+        unique.iter().map(|m| m.triangles.len() as u64).sum()
+    }
+
+    /// Triangles placed in the scene (each instance counted): what the rays see.
+    pub fn placed_triangle_count(&self) -> u64 {
         self.meshes
             .iter()
             .map(|m| m.mesh.triangles.len() as u64)
             .sum()
     }
 
-    /// Bytes of the mesh buffers (shared with the Embree scene), over all meshes.
+    /// Bytes of the mesh buffers (shared with the Embree scene; each mesh once).
     pub fn mesh_bytes(&self) -> u64 {
-        self.meshes.iter().map(|m| m.mesh.bytes()).sum()
+        self.unique_meshes().iter().map(|m| m.bytes()).sum()
+    }
+
+    /// World-space bounds `[lo, hi]` of each of `self.meshes` (an instance's are its mesh's
+    /// box transformed, a little larger than tight), each mesh's positions read once.
+    pub fn mesh_bounds(&self) -> Vec<[DVec3; 2]> {
+        let mut local: Vec<(&Arc<TriangleMesh>, [DVec3; 2])> = Vec::new();
+        self.meshes
+            .iter()
+            .map(|m| {
+                let box_ = match local.iter().find(|(u, _)| Arc::ptr_eq(u, &m.mesh)) {
+                    Some((_, b)) => *b,
+                    None => {
+                        let b = bounds(
+                            m.mesh
+                                .positions
+                                .iter()
+                                .map(|p| DVec3::from(p.map(f64::from))),
+                        );
+                        local.push((&m.mesh, b));
+                        b
+                    }
+                };
+                match m.transform {
+                    None => box_,
+                    Some(t) => bounds((0..8).map(|i| {
+                        let pick = |axis: usize| box_[(i >> axis) & 1][axis];
+                        t.transform_point3(DVec3::new(pick(0), pick(1), pick(2)))
+                    })),
+                }
+            })
+            .collect()
     }
 
     /// The material of Embree geometry `geom_id`.
@@ -203,16 +280,18 @@ impl Scene {
 
     /// The diagonal of the scene's bounding box (at least 1e-3), to scale ray offsets.
     pub fn extent(&self) -> f64 {
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for p in self.meshes.iter().flat_map(|m| m.mesh.positions.iter()) {
-            let p = DVec3::from(p.map(f64::from));
-            lo = lo.min(p);
-            hi = hi.max(p);
-        }
+        let [lo, hi] = bounds(self.mesh_bounds().into_iter().flatten());
         if lo.x > hi.x {
             return 1.0;
         }
         (hi - lo).length().max(1e-3)
     }
+}
+
+/// The bounding box `[lo, hi]` of `points` (`lo > hi` when there are none).
+fn bounds(points: impl Iterator<Item = DVec3>) -> [DVec3; 2] {
+    points.fold(
+        [DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)],
+        |[lo, hi], p| [lo.min(p), hi.max(p)],
+    )
 }

@@ -1,0 +1,215 @@
+//! Instancing: `[meshes.NAME]` + `[[instances]]` in scene files. An instance renders as the
+//! same mesh placed directly would (hits, photons, gathers), memory stays flat in the number
+//! of instances, and bad instances are one-line errors.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const EXE: &str = env!("CARGO_BIN_EXE_photondiff");
+
+/// The canonical scene at 96 x 72 without its sphere; `rest` appended.
+fn scene(dir: &Path, name: &str, rest: &str) -> PathBuf {
+    let canonical = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ))
+    .unwrap()
+    .replace("width = 640", "width = 96")
+    .replace("height = 480", "height = 72");
+    let floor = canonical
+        .split("[[shapes]]\ntype = \"sphere\"")
+        .next()
+        .unwrap();
+    let path = dir.join(name);
+    std::fs::write(&path, format!("{floor}{rest}")).unwrap();
+    path
+}
+
+/// A unit sphere at the origin as binary PLY, tessellated as the scene's `sphere` shape is.
+fn write_ball(dir: &Path) {
+    let mesh = photondiff::scene::shapes::sphere(
+        glam::DVec3::ZERO,
+        1.0,
+        photondiff::scene::shapes::DEFAULT_SPHERE_SEGMENTS,
+    );
+    photondiff::scene::mesh_file::ply::write::write_binary(
+        &mesh,
+        std::io::BufWriter::new(std::fs::File::create(dir.join("ball.ply")).unwrap()),
+    )
+    .unwrap();
+}
+
+fn render(scene: &Path, name: &str) -> (serde_json::Value, Vec<glam::DVec3>) {
+    let dir = scene.parent().unwrap();
+    let exr = dir.join(format!("{name}.exr"));
+    let json = dir.join(format!("{name}.json"));
+    let out = Command::new(EXE)
+        .arg("render")
+        .arg(scene)
+        .args(["-q", "--photons", "5000", "--caustic-photons", "5000", "-o"])
+        .arg(&exr)
+        .arg("--stats-json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stats = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let pixels = photondiff::render::part::read_part(&exr)
+        .unwrap()
+        .film
+        .pixels;
+    (stats, pixels)
+}
+
+const MESHES: &str = "[meshes.ball]\nfile = \"ball.ply\"\n";
+
+#[test]
+fn an_instanced_glass_sphere_renders_as_the_sphere_placed_directly() {
+    let dir = tempfile::tempdir().unwrap();
+    write_ball(dir.path());
+    let direct = scene(
+        dir.path(),
+        "direct.toml",
+        "[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\nmaterial = \"glass\"\n",
+    );
+    // Rotated about y, so the transform matters (a sphere looks the same, its triangles don't).
+    let instanced = scene(
+        dir.path(),
+        "instanced.toml",
+        &format!(
+            "{MESHES}[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\n\
+             translate = [0.0, 1.0, 0.0]\nrotate = [0.0, 30.0, 0.0]\nscale = 1.0\n"
+        ),
+    );
+    let (a, direct_pixels) = render(&direct, "direct");
+    let (b, instanced_pixels) = render(&instanced, "instanced");
+    // The same photons: the caustic map stores the same number from nearly the same emissions
+    // (the target sphere is the same), and the image agrees but for f32 vertex rounding and
+    // the rotated tessellation.
+    let stored = |s: &serde_json::Value| s["photon_maps"][0]["stored"].as_u64().unwrap();
+    assert_eq!(stored(&a), stored(&b));
+    let caustic_power = |s: &serde_json::Value| s["photon_maps"][0]["power"].as_f64().unwrap();
+    assert!((caustic_power(&a) / caustic_power(&b) - 1.0).abs() < 0.02);
+    let sum = |p: &[glam::DVec3]| p.iter().map(|x| x.element_sum()).sum::<f64>();
+    let se: f64 = direct_pixels
+        .iter()
+        .zip(&instanced_pixels)
+        .map(|(x, y)| (*x - *y).length_squared())
+        .sum();
+    let n = direct_pixels.len() as f64 * 3.0;
+    let rel_rmse = (se / n).sqrt() / (sum(&direct_pixels) / n);
+    // Measured 2.2e-4 (the same photons; vertices rounded to f32 after the rotation).
+    assert!(rel_rmse < 0.005, "relRMSE {rel_rmse}");
+    assert!((sum(&instanced_pixels) / sum(&direct_pixels) - 1.0).abs() < 0.002);
+}
+
+#[test]
+fn memory_stays_flat_in_the_number_of_instances() {
+    let dir = tempfile::tempdir().unwrap();
+    write_ball(dir.path());
+    let place = |count: usize| -> String {
+        let mut s = MESHES.to_string();
+        for i in 0..count {
+            let (x, z) = ((i % 10) as f64 * 0.5 - 2.5, (i / 10) as f64 * 0.5 - 2.5);
+            s += &format!(
+                "[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\n\
+                 translate = [{x}, 0.2, {z}]\nscale = [0.2, 0.15, 0.2]\n"
+            );
+        }
+        s
+    };
+    let (one, _) = render(&scene(dir.path(), "one.toml", &place(1)), "one");
+    let (hundred, _) = render(&scene(dir.path(), "hundred.toml", &place(100)), "hundred");
+    let m = |s: &serde_json::Value, k: &str| s["memory"][k].as_f64().unwrap();
+    assert_eq!(m(&one, "mesh_bytes"), m(&hundred, "mesh_bytes"));
+    assert_eq!(m(&one, "triangles"), m(&hundred, "triangles"));
+    // The floor is 2 triangles; each instance places the whole ball.
+    let ball = m(&one, "placed_triangles") - 2.0;
+    assert_eq!(m(&hundred, "placed_triangles"), 2.0 + 100.0 * ball);
+    // One BVH for the ball whatever the count; 99 more instances add a top-level BVH of a few
+    // kilobytes, not 99 copies of the ball's (megabytes).
+    assert!(
+        m(&hundred, "bvh_bytes") < m(&one, "bvh_bytes") + 1e6,
+        "{} vs {}",
+        m(&hundred, "bvh_bytes"),
+        m(&one, "bvh_bytes")
+    );
+}
+
+fn error(scene: &Path) -> String {
+    let out = Command::new(EXE)
+        .arg("render")
+        .arg(scene)
+        .arg("-o")
+        .arg(scene.with_extension("exr"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(!scene.with_extension("exr").exists());
+    stderr.trim_end().to_string()
+}
+
+#[test]
+fn bad_instances_are_one_line_errors_naming_the_element() {
+    let dir = tempfile::tempdir().unwrap();
+    write_ball(dir.path());
+    let unknown = scene(
+        dir.path(),
+        "unknown.toml",
+        &format!("{MESHES}[[instances]]\nmesh = \"bunny\"\nmaterial = \"glass\"\n"),
+    );
+    let e = error(&unknown);
+    assert!(
+        e.ends_with("instances[0].mesh: unknown mesh 'bunny' (defined in [meshes]: ball)"),
+        "{e}"
+    );
+    let singular = scene(
+        dir.path(),
+        "singular.toml",
+        &format!("{MESHES}[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\nscale = [1.0, 0.0, 1.0]\n"),
+    );
+    let e = error(&singular);
+    assert!(
+        e.ends_with(
+            "instances[0].scale: a zero scale makes the transform singular, got [1.0, 0.0, 1.0]"
+        ),
+        "{e}"
+    );
+    let missing = scene(
+        dir.path(),
+        "missing.toml",
+        "[meshes.gone]\nfile = \"gone.ply\"\n[[instances]]\nmesh = \"gone\"\nmaterial = \"glass\"\n",
+    );
+    let e = error(&missing);
+    assert!(
+        e.contains("meshes.gone.file: ") && e.contains("gone.ply"),
+        "{e}"
+    );
+}
+
+#[test]
+fn info_counts_unique_and_placed_triangles() {
+    let dir = tempfile::tempdir().unwrap();
+    write_ball(dir.path());
+    let path = scene(
+        dir.path(),
+        "two.toml",
+        &format!(
+            "{MESHES}[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\n\
+             [[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\ntranslate = [3.0, 0.0, 0.0]\n"
+        ),
+    );
+    let out = Command::new(EXE).arg("info").arg(&path).output().unwrap();
+    assert!(out.status.success());
+    let text = String::from_utf8_lossy(&out.stdout);
+    let scene = photondiff::scene::file::load_scene(&path).unwrap();
+    let ball = scene.meshes[1].mesh.triangles.len();
+    let line = format!("  triangles  {} unique, {} placed", 2 + ball, 2 + 2 * ball);
+    assert!(text.contains(&line), "no '{line}' in\n{text}");
+}
