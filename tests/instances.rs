@@ -108,6 +108,59 @@ fn an_instanced_glass_sphere_renders_as_the_sphere_placed_directly() {
 }
 
 #[test]
+fn photons_are_stored_and_gathered_on_an_instanced_diffuse_floor() {
+    let dir = tempfile::tempdir().unwrap();
+    // A unit quad in the xz plane facing +y, written as PLY, placed as the 12 x 12 floor by a
+    // per-axis scale and a translation; the glass sphere stays a shape.
+    let quad = photondiff::scene::shapes::quad(
+        glam::DVec3::new(-0.5, 0.0, 0.5),
+        glam::DVec3::new(1.0, 0.0, 0.0),
+        glam::DVec3::new(0.0, 0.0, -1.0),
+    );
+    photondiff::scene::mesh_file::ply::write::write_binary(
+        &quad,
+        std::io::BufWriter::new(std::fs::File::create(dir.path().join("tile.ply")).unwrap()),
+    )
+    .unwrap();
+    let sphere = "[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\nmaterial = \"glass\"\n";
+    let direct = scene(dir.path(), "direct.toml", sphere);
+    // The canonical floor is the first shape: drop it, place the instance instead.
+    let text = std::fs::read_to_string(&direct).unwrap();
+    let floor_start = text.find("[[shapes]]\ntype = \"quad\"").unwrap();
+    let floor_end = floor_start
+        + text[floor_start..].find("material = \"floor\"\n").unwrap()
+        + "material = \"floor\"\n".len();
+    let instanced_text = format!(
+        "{}{}[meshes.tile]\nfile = \"tile.ply\"\n[[instances]]\nmesh = \"tile\"\n\
+         material = \"floor\"\nscale = [12.0, 1.0, 12.0]\n",
+        &text[..floor_start],
+        &text[floor_end..]
+    );
+    let instanced = dir.path().join("instanced.toml");
+    std::fs::write(&instanced, instanced_text).unwrap();
+    let (a, direct_pixels) = render(&direct, "direct");
+    let (b, instanced_pixels) = render(&instanced, "instanced");
+    // The caustic map's photons land on the instanced floor and are gathered there.
+    let stored = |s: &serde_json::Value| s["photon_maps"][0]["stored"].as_u64().unwrap();
+    assert_eq!(stored(&a), stored(&b));
+    assert!(
+        b["gathers"]["photons_used"].as_u64().unwrap() > 1000,
+        "{}",
+        b["gathers"]
+    );
+    let sum = |p: &[glam::DVec3]| p.iter().map(|x| x.element_sum()).sum::<f64>();
+    let se: f64 = direct_pixels
+        .iter()
+        .zip(&instanced_pixels)
+        .map(|(x, y)| (*x - *y).length_squared())
+        .sum();
+    let n = direct_pixels.len() as f64 * 3.0;
+    let rel_rmse = (se / n).sqrt() / (sum(&direct_pixels) / n);
+    // Measured 0: scaled by 12, the tile's vertices are exactly the canonical floor's.
+    assert!(rel_rmse < 1e-6, "relRMSE {rel_rmse}");
+}
+
+#[test]
 fn memory_stays_flat_in_the_number_of_instances() {
     let dir = tempfile::tempdir().unwrap();
     write_ball(dir.path());
