@@ -300,3 +300,97 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
     let e = render(&scene_a, &d.join("none.pdm"), &[]);
     assert!(e.contains("none.pdm: cannot read photon maps: "), "{e}");
 }
+
+/// Renders `scene` into `out` with the small photon counts and `extra`.
+fn part(scene: &Path, out: &Path, extra: &[&str]) -> PathBuf {
+    let mut args = vec!["render", s(scene), "-o", s(out), "--quiet"];
+    args.extend(PHOTONS);
+    args.extend(extra);
+    ok(&args);
+    out.to_path_buf()
+}
+
+#[test]
+fn pass_ranges_and_tiles_merge_into_the_single_process_image_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = scene(d, "scene.toml", "");
+    let whole = part(&scene, &d.join("whole.exr"), &["--passes", "4"]);
+    let merge = |name: &str, parts: &[&PathBuf]| {
+        let out = d.join(name);
+        let mut args = vec!["merge".to_string(), "-o".into(), s(&out).into()];
+        args.extend(parts.iter().map(|p| s(p).to_string()));
+        (out, args)
+    };
+    // Two pass ranges of the whole image.
+    let r0 = part(
+        &scene,
+        &d.join("r0.exr"),
+        &["--passes", "4", "--pass-range", "0..1"],
+    );
+    let r1 = part(
+        &scene,
+        &d.join("r1.exr"),
+        &["--passes", "4", "--pass-range", "1..4"],
+    );
+    let (out, args) = merge("ranges.exr", &[&r1, &r0]);
+    ok(&args.iter().map(|a| a.as_str()).collect::<Vec<_>>());
+    assert!(
+        bits(&out) == bits(&whole),
+        "2 pass ranges differ from one process"
+    );
+    // Tiles split differently by passes.
+    let t = |i: u32, range: &str| {
+        let name = format!("t{i}-{range}.exr");
+        let t = format!("{i}/2");
+        part(
+            &scene,
+            &d.join(name),
+            &["--passes", "4", "--tile", &t, "--pass-range", range],
+        )
+    };
+    let (a, b, c, e) = (t(0, "0..2"), t(0, "2..4"), t(1, "0..3"), t(1, "3..4"));
+    let (out, args) = merge("tiles.exr", &[&c, &a, &e, &b]);
+    ok(&args.iter().map(|a| a.as_str()).collect::<Vec<_>>());
+    assert!(
+        bits(&out) == bits(&whole),
+        "tiles x pass ranges differ from one process"
+    );
+    // Missing and overlapping ranges.
+    let (out, args) = merge("bad.exr", &[&a, &c]);
+    let e1 = error(&args.iter().map(|a| a.as_str()).collect::<Vec<_>>());
+    assert_eq!(
+        e1,
+        "photondiff: error: missing passes 2..4 of tile 0/2; missing passes 3..4 of tile 1/2"
+    );
+    let wide = t(0, "1..3");
+    let (_, args) = merge("bad.exr", &[&a, &wide, &b, &c, &e]);
+    let e2 = error(&args.iter().map(|a| a.as_str()).collect::<Vec<_>>());
+    assert!(
+        e2.contains("(tile 0/2, passes 0..2, x 0..128, y 0..48) overlaps"),
+        "{e2}"
+    );
+    assert!(!out.exists(), "partial output");
+    // Bad ranges.
+    let bad = d.join("bad-range.exr");
+    for (extra, message) in [
+        (
+            &["--passes", "4", "--pass-range", "3..2"][..],
+            "--pass-range expected A..B with A < B",
+        ),
+        (
+            &["--passes", "4", "--pass-range", "2..5"][..],
+            "--pass-range 2..5: passes beyond --passes 4",
+        ),
+        (
+            &["--pass-range", "0..1"][..],
+            "--pass-range needs --passes N",
+        ),
+    ] {
+        let mut args = vec!["render", s(&scene), "-o", s(&bad)];
+        args.extend(extra);
+        let e = error(&args);
+        assert!(e.contains(message), "{e}");
+        assert!(!bad.exists());
+    }
+}

@@ -2,7 +2,8 @@
 //! `farm/slurm/`: photon maps, 4 tiles as a job array, and the merge as a dependent job. The
 //! merged image must equal a single-process render bit for bit. Failure drill: one array task
 //! fails (its output path is blocked by a folder), so the merge job is cancelled rather than
-//! left pending; re-running that index and the merge gives the identical image.
+//! left pending; re-running that index and the merge gives the identical image. Then 2 tiles x
+//! 2 pass ranges of a 3-pass progressive render, against 3 passes in one process.
 //!
 //! Debian's `slurmctld`, `slurmd`, `slurm-client` and `munge` are installed when missing; the
 //! test is skipped, with a message saying so, only when they cannot be installed. Both daemons
@@ -283,5 +284,28 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
     assert!(
         bits(&image) == reference,
         "the re-run image differs from one process"
+    );
+
+    // Tiles and pass ranges: 2 tiles x 2 ranges of 3 passes, against 3 passes in one process.
+    let progressive = d.join("progressive.exr");
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        progressive.to_str().unwrap(),
+    ];
+    args.extend(["--quiet", "--passes", "3"]);
+    args.extend(PHOTONS);
+    assert!(Command::new(EXE).args(&args).status().unwrap().success());
+    let extra = ["--tiles", "2", "--passes", "3", "--pass-ranges", "2"];
+    let (merge, image) = cluster.submit(&scene, &d.join("passes"), &extra);
+    assert_eq!(cluster.wait(&merge), "COMPLETED");
+    assert!(
+        d.join("passes/parts/tile-1-of-2.passes-1-3.exr").exists(),
+        "task 3 renders tile 1, passes 1..3"
+    );
+    assert!(
+        bits(&image) == bits(&progressive),
+        "the pass-range image differs from one process"
     );
 }

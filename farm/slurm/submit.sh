@@ -1,32 +1,37 @@
 #!/bin/sh
 # Submits a split render of SCENE to Slurm: one job tracing the photon maps, a job array
-# rendering one tile per task with them, and a merge job that runs only if every tile
+# rendering one tile (or one pass range of a tile) per task, and a merge job that runs only if every tile
 # succeeded (afterok; --kill-on-invalid-dep=yes cancels it when a tile fails instead of
 # leaving it pending forever). Prints the job ids and the final image's path.
 #
-#   farm/slurm/submit.sh [--tiles N] [--cpus-per-task C] [--array LIST] [--partition P]
-#                        [--photons N] [--caustic-photons N] [--overlap X] [--seed S]
-#                        SCENE OUTDIR [-- RENDER_OPTIONS...]
+#   farm/slurm/submit.sh [--tiles N] [--passes P] [--pass-ranges K] [--cpus-per-task C]
+#                        [--array LIST] [--partition P] [--photons N] [--caustic-photons N]
+#                        [--overlap X] [--seed S] SCENE OUTDIR [-- RENDER_OPTIONS...]
 #
-#   --tiles N            tiles (array tasks), default 4
+#   --tiles N            tiles, default 4
+#   --passes P           progressive passes of the whole render (default: render's default)
+#   --pass-ranges K      split each tile's passes into K ranges (K <= P), default 1: the job
+#                        array has N x K tasks, task T rendering tile T / K, range T % K
 #   --cpus-per-task C    CPUs of each task, passed to photondiff as --threads; default 2
-#   --array LIST         only these tile indices (e.g. 2 or 1,3): re-runs failed tasks, reusing
+#   --array LIST         only these task indices (e.g. 2 or 1,3): re-runs failed tasks, reusing
 #                        OUTDIR/photons.pdm when it exists, then merges all parts again
 #   --partition P        Slurm partition (default: the cluster's default)
 #   --photons, --caustic-photons, --overlap, --seed: photon settings, for the maps and the tiles
 #   RENDER_OPTIONS       further `photondiff render` options, e.g. --estimator multisampled
 #
 # OUTDIR must be on a file system every node sees. Writes OUTDIR/photons.pdm,
-# OUTDIR/parts/tile-I-of-N.exr, OUTDIR/<scene name>.exr (+ .png, .stats.json) and the jobs'
+# OUTDIR/parts/tile-I-of-N[.passes-A-B].exr, OUTDIR/<scene name>.exr (+ .png, .stats.json) and the jobs'
 # logs in OUTDIR/logs. The photondiff binary: $PHOTONDIFF, else photondiff on PATH, else
 # target/release/photondiff of this repository.
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
-tiles=4 cpus=2 array= partition= photon_options=
+tiles=4 passes= ranges=1 cpus=2 array= partition= photon_options=
 usage() { sed -n '2,/^set -eu/p' "$0" | sed '$d; s/^# \{0,1\}//' >&2; exit 1; }
 while [ $# -gt 0 ]; do
     case $1 in
         --tiles) tiles=$2; shift 2 ;;
+        --passes) passes=$2; shift 2 ;;
+        --pass-ranges) ranges=$2; shift 2 ;;
         --cpus-per-task) cpus=$2; shift 2 ;;
         --array) array=$2; shift 2 ;;
         --partition) partition=$2; shift 2 ;;
@@ -43,7 +48,12 @@ mkdir -p "$2"
 out=$(realpath "$2")
 shift 2
 [ "${1:-}" = "--" ] && shift
-case $tiles in ''|*[!0-9]*) echo "submit.sh: --tiles must be a number, got $tiles" >&2; exit 1 ;; esac
+[ -n "$passes" ] || [ "$ranges" = 1 ] || { echo "submit.sh: --pass-ranges needs --passes" >&2; exit 1; }
+for n in "$tiles" "${passes:-1}" "$ranges"; do
+    case $n in ''|0|*[!0-9]*) echo "submit.sh: --tiles, --passes and --pass-ranges take whole numbers >= 1, got $n" >&2; exit 1 ;; esac
+done
+[ "$ranges" -le "${passes:-1}" ] || { echo "submit.sh: --pass-ranges $ranges is more than --passes $passes" >&2; exit 1; }
+tasks=$((tiles * ranges))
 if [ -n "${PHOTONDIFF:-}" ]; then
     photondiff=$(realpath "$PHOTONDIFF")
 elif command -v photondiff >/dev/null; then
@@ -68,10 +78,11 @@ if [ -z "$array" ] || [ ! -e "$maps" ]; then
     dependency="--dependency=afterok:$photons_job --kill-on-invalid-dep=yes"
 fi
 # shellcheck disable=SC2086
-tiles_job=$(sbatch $common --cpus-per-task="$cpus" $dependency --array="${array:-0-$((tiles - 1))}" \
+tiles_job=$(sbatch $common --cpus-per-task="$cpus" $dependency --array="${array:-0-$((tasks - 1))}" \
     --output="$logs/tile-%A_%a.out" \
-    "$here/tile.sbatch" "$photondiff" "$scene" "$maps" "$parts" "$tiles" $photon_options "$@")
-echo "tile jobs: $tiles_job (array ${array:-0-$((tiles - 1))})"
+    "$here/tile.sbatch" "$photondiff" "$scene" "$maps" "$parts" "$tiles" "$ranges" "${passes:-0}" \
+    $photon_options "$@")
+echo "tile jobs: $tiles_job (array ${array:-0-$((tasks - 1))})"
 # shellcheck disable=SC2086
 merge_job=$(sbatch $common --cpus-per-task=1 --dependency="afterok:$tiles_job" --kill-on-invalid-dep=yes \
     --output="$logs/merge-%j.out" \

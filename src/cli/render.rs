@@ -5,6 +5,7 @@ use photondiff::embree::{BvhQuality, BvhSettings, Device};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
+use photondiff::render::pass_part::write_pass_part;
 use photondiff::render::passes::{PassReport, DEFAULT_ALPHA};
 use photondiff::render::stats::Stats;
 use photondiff::render::{
@@ -98,6 +99,10 @@ pub struct RenderArgs {
     /// their own).
     #[arg(long, value_name = "MAPS")]
     photon_maps: Option<PathBuf>,
+    /// Render only passes A to B - 1 (counting from 0) of the --passes N render, writing their
+    /// exact sums for `photondiff merge` to add to the other ranges'.
+    #[arg(long, value_name = "A..B")]
+    pass_range: Option<String>,
     /// Render only tile I of N (I counts from 0): horizontal bands of whole 16-pixel tile rows,
     /// written as an EXR whose data window is the band; `photondiff merge` joins them.
     #[arg(long, value_name = "I/N")]
@@ -127,6 +132,13 @@ pub struct RenderArgs {
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     let kind = estimator_kind(args);
     let stop = stop_rules(args)?;
+    let pass_range = super::pass_range::check(
+        args.pass_range.as_deref(),
+        args.passes.is_some(),
+        &stop,
+        kind,
+    )?;
+    let mut range_sum = None;
     if let Some(path) = &args.trace {
         // Refuse an unwritable path now rather than after the render.
         create_parent(path)?;
@@ -244,8 +256,24 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             }
             _ => None,
         };
-        let sum = progressive.run_with_maps(&stop, maps, options.progress, &mut stats)?;
-        sum.mean()
+        match &pass_range {
+            Some(range) => {
+                let total = stop.passes.unwrap_or(1);
+                let sum = super::pass_range::render(
+                    &progressive,
+                    range.clone(),
+                    total,
+                    maps,
+                    &mut stats,
+                )?;
+                let film = sum.mean();
+                range_sum = Some(sum);
+                film
+            }
+            None => progressive
+                .run_with_maps(&stop, maps, options.progress, &mut stats)?
+                .mean(),
+        }
     };
 
     let stem = args
@@ -319,11 +347,21 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if let Some(tile) = &tile {
         metadata.push(("photondiff/tile".to_string(), tile.to_string()));
     }
+    if let Some(range) = &pass_range {
+        metadata.push((
+            "photondiff/pass_range".to_string(),
+            format!("{}..{}", range.start, range.end),
+        ));
+    }
     let window = options.window.unwrap_or(Window::full(width, height));
     create_parent(&exr)?;
     create_parent(&png)?;
     stats.time("write images", || -> Result<(), String> {
-        film.write_exr_window(&exr, &metadata, (window.x0, window.y0), (width, height))?;
+        let origin = (window.x0, window.y0);
+        match &range_sum {
+            Some(sum) => write_pass_part(&exr, sum, &metadata, origin, (width, height))?,
+            None => film.write_exr_window(&exr, &metadata, origin, (width, height))?,
+        }
         film.write_png(&png)
     })?;
     stats.memory.record_peak();

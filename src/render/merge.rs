@@ -8,14 +8,18 @@
 
 use super::film::Film;
 use super::part::Part;
+use super::pass_part::read_pass_sum;
+use super::pass_sum::PassSum;
 use super::split::{TileSplit, Window};
 use serde_json::Value;
 use std::collections::BTreeSet;
+use std::ops::Range;
 
 /// Attributes that describe one process rather than the image: they may differ between parts.
 pub const PER_PART: &[&str] = &[
     "photondiff/scene",
     "photondiff/tile",
+    "photondiff/pass_range",
     "photondiff/threads",
     "photondiff/render_seconds",
     "photondiff/stats",
@@ -50,6 +54,50 @@ fn tile_of(part: &Part) -> Result<TileSplit, String> {
         }),
         None => Ok(TileSplit { index: 0, count: 1 }),
     }
+}
+
+/// The passes a part holds: its `photondiff/pass_range` attribute, or all `total`.
+fn passes_of(part: &Part, total: u64) -> Result<Range<u64>, String> {
+    match part.metadata.get("photondiff/pass_range") {
+        Some(r) => parse_range(r).map_err(|e| {
+            format!(
+                "{}: bad photondiff/pass_range attribute: {e}",
+                part.path.display()
+            )
+        }),
+        None => Ok(0..total),
+    }
+}
+
+/// Parses `A..B` (passes A to B - 1, `A < B`).
+pub fn parse_range(text: &str) -> Result<Range<u64>, String> {
+    let bad = || format!("expected A..B with A < B (passes A to B - 1, from 0), got {text:?}");
+    let (a, b) = text.split_once("..").ok_or_else(bad)?;
+    let (a, b): (u64, u64) = (
+        a.trim().parse().map_err(|_| bad())?,
+        b.trim().parse().map_err(|_| bad())?,
+    );
+    if a >= b {
+        return Err(bad());
+    }
+    Ok(a..b)
+}
+
+/// The gaps of `ranges` (disjoint) in `0..total`.
+fn gaps(mut ranges: Vec<Range<u64>>, total: u64) -> Vec<Range<u64>> {
+    ranges.sort_by_key(|r| r.start);
+    let mut out = Vec::new();
+    let mut at = 0;
+    for r in ranges {
+        if r.start > at {
+            out.push(at..r.start);
+        }
+        at = at.max(r.end);
+    }
+    if at < total {
+        out.push(at..total);
+    }
+    out
 }
 
 /// Merges `parts` (see the module documentation).
@@ -98,19 +146,42 @@ pub fn merge(parts: &[Part]) -> Result<Merged, String> {
             }
         }
     }
-    // No overlap.
+    // No overlap: in the image, or in the passes of the same pixels.
     let tiles: Vec<TileSplit> = parts.iter().map(tile_of).collect::<Result<_, _>>()?;
+    let total: u64 = match first.metadata.get("photondiff/passes") {
+        Some(p) => p
+            .parse()
+            .map_err(|_| format!("{}: bad photondiff/passes attribute {p:?}", name(first)))?,
+        None => 1,
+    };
+    let ranges: Vec<Range<u64>> = parts
+        .iter()
+        .map(|p| passes_of(p, total))
+        .collect::<Result<_, _>>()?;
+    let describe = |k: usize| {
+        let p = &parts[k];
+        match p.metadata.contains_key("photondiff/pass_range") {
+            true => format!("tile {}, passes {:?}, {}", tiles[k], ranges[k], p.window),
+            false => format!("tile {}, {}", tiles[k], p.window),
+        }
+    };
     for (i, a) in parts.iter().enumerate() {
+        if ranges[i].end > total {
+            return Err(format!(
+                "{}: passes {:?} of a {total}-pass render",
+                name(a),
+                ranges[i]
+            ));
+        }
         for (j, b) in parts.iter().enumerate().skip(i + 1) {
-            if a.window.overlaps(&b.window) {
+            let passes_meet = ranges[i].start < ranges[j].end && ranges[j].start < ranges[i].end;
+            if a.window.overlaps(&b.window) && passes_meet {
                 return Err(format!(
-                    "{} (tile {}, {}) overlaps {} (tile {}, {})",
+                    "{} ({}) overlaps {} ({})",
                     name(a),
-                    tiles[i],
-                    a.window,
+                    describe(i),
                     name(b),
-                    tiles[j],
-                    b.window
+                    describe(j)
                 ));
             }
         }
@@ -131,8 +202,18 @@ pub fn merge(parts: &[Part]) -> Result<Merged, String> {
         .filter(|i| !present.contains(i))
         .map(|i| format!("{i}/{count}"))
         .collect();
+    let mut problems = Vec::new();
     if !missing.is_empty() {
-        return Err(format!("missing tiles: {}", missing.join(", ")));
+        problems.push(format!("missing tiles: {}", missing.join(", ")));
+    }
+    for &index in &present {
+        let of_tile = (0..parts.len()).filter(|&k| tiles[k].index == index);
+        for gap in gaps(of_tile.map(|k| ranges[k].clone()).collect(), total) {
+            problems.push(format!("missing passes {gap:?} of tile {index}/{count}"));
+        }
+    }
+    if !problems.is_empty() {
+        return Err(problems.join("; "));
     }
     let (width, height) = first.display;
     for (part, tile) in parts.iter().zip(&tiles) {
@@ -146,8 +227,26 @@ pub fn merge(parts: &[Part]) -> Result<Merged, String> {
         }
     }
     let mut film = Film::new(width, height);
-    for part in parts {
-        copy_window(&part.film, part.window, &mut film);
+    for &index in &present {
+        let of_tile: Vec<usize> = (0..parts.len())
+            .filter(|&k| tiles[k].index == index)
+            .collect();
+        let part = &parts[of_tile[0]];
+        if !part.metadata.contains_key("photondiff/pass_range") {
+            copy_window(&part.film, part.window, &mut film);
+            continue;
+        }
+        // Pass ranges: their exact sums added (in any order: fixed point), then one division.
+        let mut sum: Option<PassSum> = None;
+        for &k in &of_tile {
+            let part_sum = read_pass_sum(&parts[k].path, ranges[k].end - ranges[k].start)?;
+            match &mut sum {
+                None => sum = Some(part_sum),
+                Some(s) => s.merge(&part_sum),
+            }
+        }
+        let mean = sum.expect("a tile has parts").mean();
+        copy_window(&mean, part.window, &mut film);
     }
     let stats = merge_stats(parts)?;
     let mut metadata: Vec<(String, String)> = first

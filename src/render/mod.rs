@@ -11,6 +11,7 @@ pub mod image;
 pub mod merge;
 pub mod noise;
 pub mod part;
+pub mod pass_part;
 pub mod pass_sum;
 pub mod passes;
 pub mod photon_pass;

@@ -30,13 +30,13 @@ pub struct PassSum {
     /// Passes summed.
     pub passes: u64,
     /// Per pixel and channel, the sum in units of 2^-80.
-    fixed: Vec<[i128; 3]>,
+    pub(crate) fixed: Vec<[i128; 3]>,
     /// Per pixel, the floating-point sum (used where `exact` is false).
-    float: Vec<DVec3>,
+    pub(crate) float: Vec<DVec3>,
     /// Per pixel, the sum of squares (floating point: a statistic, not the image).
     pub squares: Vec<DVec3>,
     /// Per pixel, whether every value summed fitted the fixed point.
-    exact: Vec<bool>,
+    pub(crate) exact: Vec<bool>,
     /// Per pixel, whether the caustic estimate was non-zero in any pass.
     pub reach: Vec<bool>,
 }
