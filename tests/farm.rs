@@ -3,6 +3,7 @@
 //! files) is a one-line error with exit status 1 that leaves no output behind.
 
 use photondiff::render::part::read_part;
+use photondiff::scene::hash::scene_hash;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -163,16 +164,25 @@ fn bad_splits_are_one_line_errors_without_output() {
     let scene = scene(dir.path(), "scene.toml", "");
     let out = dir.path().join("t.exr");
     for (split, message) in [
-        ("0/0", "the number of tiles N must be at least 1"),
-        ("5/4", "tile I must be below N = 4 (tiles count from 0)"),
+        (
+            "0/0",
+            "--tile \"0/0\": the number of tiles N must be at least 1",
+        ),
+        (
+            "5/4",
+            "--tile \"5/4\": tile I must be below N = 4 (tiles count from 0)",
+        ),
         (
             "0/8",
-            "the 112-pixel-high image has only 7 rows of 16-pixel tiles; use at most 7 tiles",
+            "--tile 0/8: the 112-pixel-high image has only 7 rows of 16-pixel tiles; use at most 7 tiles",
         ),
-        ("x", "expected I/N with 0 <= I < N (I counts from 0)"),
+        (
+            "x",
+            "--tile expected I/N with 0 <= I < N (I counts from 0), got \"x\"",
+        ),
     ] {
         let e = error(&["render", s(&scene), "-o", s(&out), "--tile", split]);
-        assert!(e.contains(message), "{e}");
+        assert_eq!(e, format!("photondiff: error: {message}"));
     }
     assert_eq!(
         std::fs::read_dir(dir.path()).unwrap().count(),
@@ -203,30 +213,43 @@ fn merge_refuses_foreign_overlapping_and_incomplete_parts() {
         e
     };
     let e = merge(&[&a[0], &a[1], &a[2], &b0]);
-    assert!(
-        e.contains(&format!(
-            "{} is from another scene than {}",
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {} is from another scene than {}: photondiff/scene_hash is {:016x} there, {:016x} here",
             s(&b0),
-            s(&a[0])
-        )),
-        "{e}"
+            s(&a[0]),
+            scene_hash(&scene_a).unwrap(),
+            scene_hash(&scene_b).unwrap()
+        )
     );
     let e = merge(&[&a[0], &seed, &a[2], &a[3]]);
-    assert!(
-        e.contains("has other settings") && e.contains("photondiff/seed is 0 there, 7 here"),
-        "{e}"
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {} has other settings than {}: photondiff/seed is 0 there, 7 here",
+            s(&seed),
+            s(&a[0])
+        )
     );
     let e = merge(&[&a[0], &a[1], &a[1], &a[2], &a[3]]);
-    assert!(
-        e.contains(&format!(
-            "{} (tile 1/4, x 0..128, y 16..48) overlaps {}",
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {} (tile 1/4, x 0..128, y 16..48) overlaps {} (tile 1/4, x 0..128, y 16..48)",
             s(&a[1]),
             s(&a[1])
-        )),
-        "{e}"
+        )
     );
     let e = merge(&[&a[0], &seven, &a[1]]);
-    assert!(e.contains("overlaps"), "{e}");
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {} (tile 0/4, x 0..128, y 0..16) overlaps {} (tile 0/7, x 0..128, y 0..16)",
+            s(&a[0]),
+            s(&seven)
+        )
+    );
     let e = merge(&[&a[2]]);
     assert_eq!(e, "photondiff: error: missing tiles: 0/4, 1/4, 3/4");
 }
@@ -253,11 +276,13 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
     };
     let name = s(&maps);
     let e = render(&scene_b, &maps, &[]);
-    assert!(
-        e.starts_with(&format!(
-            "photondiff: error: {name}: photon maps of another scene (scene hash "
-        )),
-        "{e}"
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {name}: photon maps of another scene (scene hash {:016x}; this scene's is {:016x})",
+            scene_hash(&scene_a).unwrap(),
+            scene_hash(&scene_b).unwrap()
+        )
     );
     let e = render(&scene_a, &maps, &["--overlap", "16"]);
     assert!(e.ends_with("photon maps traced with other settings: --overlap is 32 in the file, 16 in this render"), "{e}");
@@ -375,22 +400,26 @@ fn pass_ranges_and_tiles_merge_into_the_single_process_image_bit_for_bit() {
     let bad = d.join("bad-range.exr");
     for (extra, message) in [
         (
-            &["--passes", "4", "--pass-range", "3..2"][..],
-            "--pass-range expected A..B with A < B",
+            &["--passes", "4", "--pass-range", "3..3"][..],
+            "--pass-range expected A..B with A < B (passes A to B - 1, from 0), got \"3..3\"",
+        ),
+        (
+            &["--passes", "4", "--pass-range", "5..2"][..],
+            "--pass-range expected A..B with A < B (passes A to B - 1, from 0), got \"5..2\"",
         ),
         (
             &["--passes", "4", "--pass-range", "2..5"][..],
-            "--pass-range 2..5: passes beyond --passes 4",
+            "--pass-range 2..5: passes beyond --passes 4 (passes count from 0)",
         ),
         (
             &["--pass-range", "0..1"][..],
-            "--pass-range needs --passes N",
+            "--pass-range needs --passes N (the whole render's passes) and neither --time-budget nor --target-noise",
         ),
     ] {
         let mut args = vec!["render", s(&scene), "-o", s(&bad)];
         args.extend(extra);
         let e = error(&args);
-        assert!(e.contains(message), "{e}");
+        assert_eq!(e, format!("photondiff: error: {message}"));
         assert!(!bad.exists());
     }
 }
