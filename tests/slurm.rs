@@ -49,6 +49,7 @@ fn install_slurm() -> Result<(), String> {
         "{sudo}apt-get update -qq && DEBIAN_FRONTEND=noninteractive {sudo}apt-get install -y \
          --no-install-recommends slurmctld slurmd slurm-client munge"
     );
+    let start = Instant::now();
     let out = Command::new("sh")
         .args(["-c", &script])
         .output()
@@ -57,6 +58,10 @@ fn install_slurm() -> Result<(), String> {
         let err = String::from_utf8_lossy(&out.stderr);
         return Err(err.lines().last().unwrap_or("apt-get failed").to_string());
     }
+    eprintln!(
+        "slurm: packages installed in {:.1} s (apt-get update and install)",
+        start.elapsed().as_secs_f64()
+    );
     Ok(())
 }
 
@@ -175,6 +180,35 @@ impl Cluster {
         (field("merge job:"), PathBuf::from(field("image:")))
     }
 
+    /// Submits a job that does nothing and returns how long it stayed pending: the
+    /// scheduler's latency, before any photondiff work.
+    fn start_latency(&self) -> f64 {
+        let start = Instant::now();
+        let id = self.run(&[
+            "sbatch",
+            "--parsable",
+            "--output=/dev/null",
+            "--wrap",
+            "true",
+        ]);
+        let id = id.trim().to_string();
+        assert!(!id.is_empty(), "sbatch --wrap true printed no job id");
+        loop {
+            let state = self.run(&["squeue", "-h", "-j", &id, "-o", "%T"]);
+            if !matches!(state.trim(), "PENDING" | "") {
+                break;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(60),
+                "job {id} still pending after 60 s"
+            );
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        let latency = start.elapsed().as_secs_f64();
+        assert_eq!(self.wait(&id), "COMPLETED");
+        latency
+    }
+
     /// Waits until job `id` has left the queue and returns its final state.
     fn wait(&self, id: &str) -> String {
         let start = Instant::now();
@@ -261,6 +295,10 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
     let reference = bits(&single);
 
     let cluster = Cluster::start(&d.join("slurm"));
+    eprintln!(
+        "slurm: a job started {:.2} s after submission",
+        cluster.start_latency()
+    );
 
     // All tiles succeed.
     let (merge, image) = cluster.submit(&scene, &d.join("run"), &[]);
