@@ -19,6 +19,7 @@ pub use multisampled::MultiSampledEstimate;
 pub use pd::PhotonDifferentialEstimate;
 pub use select::{EstimatorKind, EstimatorSettings};
 
+use crate::photons::footprint_bvh::OFF_PLANE_TOLERANCE;
 use crate::photons::map::Photon;
 use glam::{DVec3, Vec3};
 use serde::Serialize;
@@ -85,7 +86,7 @@ pub(crate) fn same_side(n_p: Vec3, n_x: Vec3) -> bool {
 /// radius. Shared by every footprint-based estimator.
 #[inline]
 pub fn on_query_surface(p: &Photon, v: Vec3, n_x: Vec3) -> bool {
-    same_side(p.normal, n_x) && p.normal.dot(v).abs() <= 0.1 * p.radius
+    same_side(p.normal, n_x) && p.normal.dot(v).abs() <= OFF_PLANE_TOLERANCE * p.radius
 }
 
 /// `Phi_p / A_p K(|M_p v|)` for a photon at offset `v = x - x_p`, or `None` outside its

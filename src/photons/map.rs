@@ -1,11 +1,14 @@
-//! Photon maps: stored photons with their footprints, in a kd-tree (kiddo) for range and
+//! Photon maps: stored photons with their footprints, in a BVH over footprint boxes for range
+//! queries ([`crate::photons::footprint_bvh`]) and a kd-tree (kiddo, built on first use) for
 //! k-nearest queries.
 
 use crate::photons::footprint::{Footprint, Guards};
+use crate::photons::footprint_bvh::{footprint_box, Aabb, FootprintBvh};
 use glam::{DVec3, Vec3};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
 use std::num::NonZero;
+use std::sync::OnceLock;
 
 /// A stored photon: what its estimates need and no more.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -58,16 +61,6 @@ pub enum PathClass {
     Global,
 }
 
-/// Photons whose footprint radii lie within a factor of two, in a tree of their own: a range
-/// query for footprints that may reach a point then only needs this bin's largest radius, not
-/// the whole map's.
-struct RadiusBin {
-    max_radius: f32,
-    tree: ImmutableKdTree<f32, u32, 3, 32>,
-    /// Map indices of the bin's photons (the tree's items index this).
-    indices: Vec<u32>,
-}
-
 /// A photon map: photons of one [`PathClass`] and the trees over their positions.
 pub struct PhotonMap {
     /// The class of paths stored.
@@ -80,61 +73,26 @@ pub struct PhotonMap {
     pub guards: Guards,
     /// Largest footprint circumradius in the map.
     pub max_radius: f32,
-    /// Over every photon, for k-nearest queries.
-    tree: ImmutableKdTree<f32, u32, 3, 32>,
-    /// By footprint radius, for footprint range queries.
-    bins: Vec<RadiusBin>,
+    /// Over every photon's position, for k-nearest queries: built on the first such query (only
+    /// `jensen` asks), so that building a map costs only the footprint BVH.
+    tree: OnceLock<ImmutableKdTree<f32, u32, 3, 32>>,
+    /// Over every photon's footprint box, for footprint range queries.
+    bvh: FootprintBvh,
 }
 
 impl PhotonMap {
-    /// Builds the tree over `photons`.
+    /// Builds the footprint BVH over `photons`.
     pub fn new(class: PathClass, photons: Vec<Photon>, emitted: u64, guards: Guards) -> Self {
-        let points: Vec<[f32; 3]> = photons.iter().map(|p| p.position.to_array()).collect();
-        let tree = ImmutableKdTree::new_from_slice(&points);
         let max_radius = photons.iter().map(|p| p.radius).fold(0.0, f32::max);
-        let min_radius = photons
-            .iter()
-            .map(|p| p.radius)
-            .fold(f32::INFINITY, f32::min);
-        // Bin k holds radii in (min 2^(k-1), min 2^k].
-        let mut members: Vec<Vec<u32>> = Vec::new();
-        for (i, p) in photons.iter().enumerate() {
-            let k = if p.radius > min_radius {
-                (p.radius / min_radius).log2().ceil().max(0.0) as usize
-            } else {
-                0
-            };
-            if members.len() <= k {
-                members.resize(k + 1, Vec::new());
-            }
-            members[k].push(i as u32);
-        }
-        let bins = members
-            .into_iter()
-            .filter(|m| !m.is_empty())
-            .map(|indices| {
-                let points: Vec<[f32; 3]> = indices
-                    .iter()
-                    .map(|&i| photons[i as usize].position.to_array())
-                    .collect();
-                RadiusBin {
-                    max_radius: indices
-                        .iter()
-                        .map(|&i| photons[i as usize].radius)
-                        .fold(0.0, f32::max),
-                    tree: ImmutableKdTree::new_from_slice(&points),
-                    indices,
-                }
-            })
-            .collect();
+        let boxes: Vec<Aabb> = photons.iter().map(footprint_box).collect();
         PhotonMap {
             class,
             photons,
             emitted,
             guards,
             max_radius,
-            tree,
-            bins,
+            tree: OnceLock::new(),
+            bvh: FootprintBvh::new(&boxes),
         }
     }
 
@@ -154,21 +112,24 @@ impl PhotonMap {
     }
 
     /// Indices (any order) of a superset of the photons whose footprint, grown by `reach`, may
-    /// cover `x`: every photon with `|x - x_p| <= radius_p + reach`. Each radius bin is queried
-    /// with its own largest radius.
+    /// cover `x`: every photon whose footprint box ([`footprint_box`]: its ellipse and the
+    /// tolerance off its plane) overlaps the cube `x +- reach`. The estimators test each exactly.
     pub fn reaching(&self, x: DVec3, reach: f64, out: &mut Vec<u32>) {
         out.clear();
-        let query = x.as_vec3().to_array();
-        for bin in &self.bins {
-            let r = bin.max_radius as f64 + reach;
-            let r2 = (r * r) as f32;
-            out.extend(
-                bin.tree
-                    .within_unsorted::<SquaredEuclidean>(&query, r2)
-                    .into_iter()
-                    .map(|n| bin.indices[n.item as usize]),
-            );
-        }
+        let reach = if reach.is_finite() {
+            reach.max(0.0)
+        } else {
+            0.0
+        };
+        // Rounded outwards: the box must hold the f64 cube.
+        let r = Vec3::splat((reach * (1.0 + 1e-6)) as f32);
+        let c = x.as_vec3();
+        let slack = Vec3::splat(c.abs().max_element() * 4.0 * f32::EPSILON);
+        let query = Aabb {
+            min: c - r - slack,
+            max: c + r + slack,
+        };
+        self.bvh.overlapping(&query, out);
     }
 
     /// The (at most) `k` nearest photons within `max_radius` of `x`, nearest first, as
@@ -180,9 +141,13 @@ impl PhotonMap {
             return;
         }
         let r2 = (max_radius * max_radius) as f32;
+        let tree = self.tree.get_or_init(|| {
+            let points: Vec<[f32; 3]> =
+                self.photons.iter().map(|p| p.position.to_array()).collect();
+            ImmutableKdTree::new_from_slice(&points)
+        });
         out.extend(
-            self.tree
-                .nearest_n_within::<SquaredEuclidean>(&x.as_vec3().to_array(), r2, k, true)
+            tree.nearest_n_within::<SquaredEuclidean>(&x.as_vec3().to_array(), r2, k, true)
                 .into_iter()
                 .map(|n| (n.distance, n.item)),
         );

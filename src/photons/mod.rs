@@ -1,10 +1,12 @@
 //! Photon tracing: emission from the lights with emission differentials ([`emission`]), light
 //! paths through the scene ([`light_path`]), the photons they store ([`trace`]), each with its
-//! footprint ([`footprint`]), gathered into photon maps ([`map`]).
+//! footprint ([`footprint`]), gathered into photon maps ([`map`]) with a BVH over footprint boxes
+//! ([`footprint_bvh`]).
 
 pub mod emission;
 pub mod file;
 pub mod footprint;
+pub mod footprint_bvh;
 pub mod light_path;
 pub mod map;
 pub mod trace;

@@ -1,0 +1,365 @@
+//! A bounding-volume hierarchy over per-photon footprint boxes: the range query of the
+//! footprint estimators.
+//!
+//! Why boxes of footprints rather than points: a query must find every photon whose footprint
+//! (grown by the view footprint's reach) covers a point. A tree over photon *positions* must
+//! search within the largest footprint radius around the point, so it returns every photon in
+//! that ball, and the ball's content grows with the photon count while the footprints shrink.
+//! A tree over each photon's own footprint box returns only photons whose box overlaps the query
+//! box, which stays near `--overlap` photons whatever their number.
+//!
+//! Why our own builder rather than Embree's `rtcBuildBVH`: the tree is small and simple
+//! (axis-aligned boxes, no ray traversal), a linear BVH (Karras 2012: Morton-sorted centres, split
+//! at the highest differing bit) builds in one sort plus a linear pass in safe Rust, and keeping
+//! it out of `src/embree` keeps the FFI surface (the only unsafe code) as it is.
+
+use crate::photons::map::Photon;
+use glam::{DMat3, DVec3, Vec3};
+use rayon::prelude::*;
+
+/// How far off its tangent plane a query point may lie and still see a photon, as a fraction of
+/// the photon's radius (`estimate::on_query_surface`).
+pub const OFF_PLANE_TOLERANCE: f32 = 0.1;
+
+/// The box of every offset `v` from photon `p` at which its kernel may be non-zero: its ellipse
+/// `|M v| < 1` thickened by [`OFF_PLANE_TOLERANCE`] along its normal (a slanted elliptic
+/// cylinder). With `N` the rows `m[0]`, `m[1]`, `n / (t r)`, the cylinder is `N^-1` of the unit
+/// disc times `[-1, 1]`, so its half-extent on axis `i` is
+/// `sqrt(N^-1[i][0]^2 + N^-1[i][1]^2) + |N^-1[i][2]|`, exactly, whatever the rows. Rounded
+/// outwards; a degenerate photon gets the box of the ball `|v| <= 1.1 r` (and one with
+/// non-finite data a non-finite box, which the BVH never returns).
+pub fn footprint_box(p: &Photon) -> Aabb {
+    let r = p.radius as f64;
+    let t = OFF_PLANE_TOLERANCE as f64 * r;
+    let rows = DMat3::from_cols(
+        p.m[0].as_dvec3(),
+        p.m[1].as_dvec3(),
+        p.normal.as_dvec3() / t,
+    )
+    .transpose();
+    let inv = rows.inverse();
+    let half = if rows.determinant().abs() > 0.0 && inv.is_finite() {
+        // inv's columns are the images of the unit vectors of disc and segment.
+        let (c0, c1, c2) = (inv.x_axis, inv.y_axis, inv.z_axis);
+        (c0 * c0 + c1 * c1).map(f64::sqrt) + c2.abs()
+    } else {
+        DVec3::splat(1.1 * r)
+    };
+    let c = p.position;
+    let half =
+        (half * (1.0 + 1e-5)).as_vec3() + Vec3::splat(c.abs().max_element() * 4.0 * f32::EPSILON);
+    Aabb {
+        min: c - half,
+        max: c + half,
+    }
+}
+
+/// Photons per leaf at most.
+const LEAF_SIZE: usize = 4;
+
+/// An axis-aligned box.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Aabb {
+    /// Lower corner.
+    pub min: Vec3,
+    /// Upper corner.
+    pub max: Vec3,
+}
+
+impl Aabb {
+    /// The empty box (the identity of [`Aabb::union`]).
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::INFINITY,
+        max: Vec3::NEG_INFINITY,
+    };
+
+    /// The smallest box holding both.
+    #[inline]
+    pub fn union(&self, other: &Aabb) -> Aabb {
+        Aabb {
+            min: self.min.min(other.min),
+            max: self.max.max(other.max),
+        }
+    }
+
+    /// Whether the boxes share a point (closed boxes: touching counts).
+    #[inline]
+    pub fn overlaps(&self, other: &Aabb) -> bool {
+        self.min.cmple(other.max).all() && other.min.cmple(self.max).all()
+    }
+}
+
+/// A node: its bounds and either a range of leaf items (`count > 0`) or two children, the left
+/// one directly after it and the right one at `index`.
+#[derive(Debug, Clone, Copy)]
+struct Node {
+    bounds: Aabb,
+    index: u32,
+    count: u32,
+}
+
+/// A BVH over boxes, each tagged with the `u32` it was given at (its index in the input).
+pub struct FootprintBvh {
+    nodes: Vec<Node>,
+    /// The items' boxes in leaf order.
+    boxes: Vec<Aabb>,
+    /// The items' input indices in leaf order.
+    ids: Vec<u32>,
+}
+
+/// Spreads the low 21 bits of `v` to every third bit.
+fn spread(v: u64) -> u64 {
+    let mut x = v & 0x1f_ffff;
+    x = (x | x << 32) & 0x1f_0000_0000_ffff;
+    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    x = (x | x << 2) & 0x1249_2492_4924_9249;
+    x
+}
+
+impl FootprintBvh {
+    /// Builds the hierarchy over `boxes` (non-finite boxes are never found).
+    pub fn new(boxes: &[Aabb]) -> Self {
+        // Morton codes of the box centres over the centres' bounds; ties broken by index, so
+        // the tree (and the order of query results) depends only on the input.
+        let finite: Vec<u32> = (0..boxes.len() as u32)
+            .filter(|&i| {
+                let b = &boxes[i as usize];
+                b.min.is_finite() && b.max.is_finite()
+            })
+            .collect();
+        let (lo, hi) = finite
+            .iter()
+            .map(|&i| {
+                let b = &boxes[i as usize];
+                0.5 * (b.min + b.max)
+            })
+            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| {
+                (lo.min(c), hi.max(c))
+            });
+        let scale = ((1u32 << 21) - 1) as f32 / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
+        let mut keyed: Vec<(u64, u32)> = finite
+            .par_iter()
+            .map(|&i| {
+                let b = &boxes[i as usize];
+                let q = ((0.5 * (b.min + b.max) - lo) * scale)
+                    .clamp(Vec3::ZERO, Vec3::splat(2097151.0));
+                let code = spread(q.x as u64) << 2 | spread(q.y as u64) << 1 | spread(q.z as u64);
+                (code, i)
+            })
+            .collect();
+        keyed.par_sort_unstable();
+        let codes: Vec<u64> = keyed.iter().map(|k| k.0).collect();
+        let ids: Vec<u32> = keyed.iter().map(|k| k.1).collect();
+        let boxes: Vec<Aabb> = ids.iter().map(|&i| boxes[i as usize]).collect();
+        let mut bvh = FootprintBvh {
+            nodes: Vec::with_capacity(2 * ids.len() / LEAF_SIZE + 1),
+            boxes,
+            ids,
+        };
+        if !bvh.ids.is_empty() {
+            bvh.build(&codes, 0, codes.len());
+        }
+        bvh
+    }
+
+    /// Builds the subtree over items `first..end` (sorted by code); returns its bounds.
+    fn build(&mut self, codes: &[u64], first: usize, end: usize) -> Aabb {
+        let me = self.nodes.len();
+        self.nodes.push(Node {
+            bounds: Aabb::EMPTY,
+            index: first as u32,
+            count: (end - first) as u32,
+        });
+        if end - first <= LEAF_SIZE {
+            let bounds = self.boxes[first..end]
+                .iter()
+                .fold(Aabb::EMPTY, |a, b| a.union(b));
+            self.nodes[me].bounds = bounds;
+            return bounds;
+        }
+        let split = split_point(codes, first, end);
+        let left = self.build(codes, first, split);
+        let right_index = self.nodes.len() as u32;
+        let right = self.build(codes, split, end);
+        let bounds = left.union(&right);
+        self.nodes[me] = Node {
+            bounds,
+            index: right_index,
+            count: 0,
+        };
+        bounds
+    }
+
+    /// Number of items.
+    pub fn len(&self) -> usize {
+        self.ids.len()
+    }
+
+    /// Whether the hierarchy holds no item.
+    pub fn is_empty(&self) -> bool {
+        self.ids.is_empty()
+    }
+
+    /// Appends to `out` (not cleared) the indices of every item whose box overlaps `query`, in
+    /// leaf order.
+    pub fn overlapping(&self, query: &Aabb, out: &mut Vec<u32>) {
+        if self.nodes.is_empty() {
+            return;
+        }
+        // Depth is at most 63 bit levels plus log2(n) halvings of equal codes.
+        let mut stack = [0u32; 128];
+        let mut top = 1;
+        while top > 0 {
+            top -= 1;
+            let here = stack[top];
+            let node = &self.nodes[here as usize];
+            if !node.bounds.overlaps(query) {
+                continue;
+            }
+            if node.count > 0 {
+                let range = node.index as usize..(node.index + node.count) as usize;
+                for (b, &id) in self.boxes[range.clone()].iter().zip(&self.ids[range]) {
+                    if b.overlaps(query) {
+                        out.push(id);
+                    }
+                }
+            } else {
+                // Right pushed first: the left subtree is visited first.
+                stack[top] = node.index;
+                stack[top + 1] = here + 1;
+                top += 2;
+            }
+        }
+    }
+}
+
+/// Where to split items `first..end` (sorted by code, at least two): after the last item that
+/// shares the range's highest differing bit's zero, or in the middle when all codes are equal.
+fn split_point(codes: &[u64], first: usize, end: usize) -> usize {
+    let (a, b) = (codes[first], codes[end - 1]);
+    if a == b {
+        return (first + end) / 2;
+    }
+    let prefix = (a ^ b).leading_zeros();
+    // Binary search for the first code whose bit below the common prefix is set.
+    let mut lo = first; // has the bit clear
+    let mut hi = end - 1; // has the bit set
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if (a ^ codes[mid]).leading_zeros() > prefix {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    hi
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photons::footprint::{footprint, FootprintLimits, Guards};
+    use proptest::prelude::*;
+
+    fn aabb(c: [f32; 3], h: [f32; 3]) -> Aabb {
+        let (c, h) = (Vec3::from(c), Vec3::from(h));
+        Aabb {
+            min: c - h,
+            max: c + h,
+        }
+    }
+
+    fn brute(boxes: &[Aabb], q: &Aabb) -> Vec<u32> {
+        (0..boxes.len() as u32)
+            .filter(|&i| boxes[i as usize].overlaps(q))
+            .collect()
+    }
+
+    proptest! {
+        #[test]
+        fn finds_exactly_the_overlapping_boxes(
+            items in prop::collection::vec(
+                (prop::array::uniform3(-10f32..10.0), prop::array::uniform3(0f32..1.5)), 0..400),
+            queries in prop::collection::vec(
+                (prop::array::uniform3(-11f32..11.0), prop::array::uniform3(0f32..2.0)), 1..20),
+            duplicates in 0usize..50,
+        ) {
+            let mut boxes: Vec<Aabb> = items.iter().map(|(c, h)| aabb(*c, *h)).collect();
+            // Equal centres (equal Morton codes) must split too.
+            for k in 0..duplicates.min(boxes.len()) {
+                boxes.push(boxes[k]);
+            }
+            let bvh = FootprintBvh::new(&boxes);
+            prop_assert_eq!(bvh.len(), boxes.len());
+            for (c, h) in &queries {
+                let q = aabb(*c, *h);
+                let mut found = Vec::new();
+                bvh.overlapping(&q, &mut found);
+                found.sort_unstable();
+                prop_assert_eq!(found, brute(&boxes, &q));
+            }
+        }
+
+        #[test]
+        fn footprint_box_holds_the_kernel_support_and_touches_it(
+            a in prop::array::uniform3(-1f64..1.0),
+            b in prop::array::uniform3(-1f64..1.0),
+            n in prop::array::uniform3(-1f64..1.0),
+            centre in prop::array::uniform3(-5f64..5.0),
+            scale in 0.001f64..1.0,
+        ) {
+            let n = DVec3::from(n);
+            prop_assume!(n.length() > 0.1);
+            let n = n.normalize();
+            let limits = FootprintLimits { min_radius: 1e-4, max_radius: 10.0, max_anisotropy: 8.0 };
+            let f = footprint(
+                DVec3::from(a) * scale, DVec3::from(b) * scale, n, &limits, 0.1,
+                &mut Guards::default());
+            let p = Photon::new(DVec3::from(centre), n, -n, DVec3::ONE, &f);
+            let bx = footprint_box(&p);
+            // Points of the support's boundary: the ellipse's rim at both slab faces.
+            let (t1, t2) = crate::geometry::sampling::tangent_frame(n);
+            let mut reached = Vec3::ZERO;
+            for k in 0..720 {
+                let phi = k as f64 * std::f64::consts::TAU / 720.0;
+                // Tangent offset on the ellipse |M w| = 1 along direction phi.
+                let d = t1 * phi.cos() + t2 * phi.sin();
+                let md = (f.m[0].dot(d).powi(2) + f.m[1].dot(d).powi(2)).sqrt();
+                for h in [-1.0, 1.0] {
+                    let v = d / md * 0.99999 + n * (h * 0.99999 * OFF_PLANE_TOLERANCE as f64 * f.radius);
+                    let x = (DVec3::from(centre) + v).as_vec3();
+                    prop_assert!(
+                        x.cmpge(bx.min).all() && x.cmple(bx.max).all(),
+                        "{x} outside {bx:?}"
+                    );
+                    reached = reached.max(v.abs().as_vec3());
+                }
+            }
+            // Tight: the sampled rim reaches the box's half-extent within 0.1%.
+            let half = 0.5 * (bx.max - bx.min);
+            for i in 0..3 {
+                prop_assert!(reached[i] >= 0.999 * half[i] - 1e-5, "{reached} vs {half}");
+            }
+        }
+    }
+
+    #[test]
+    fn empty_and_non_finite_boxes_are_never_found() {
+        let bvh = FootprintBvh::new(&[]);
+        let mut out = Vec::new();
+        bvh.overlapping(&aabb([0.0; 3], [1e9; 3]), &mut out);
+        assert!(out.is_empty() && bvh.is_empty());
+        let boxes = [
+            aabb([0.0; 3], [1.0; 3]),
+            aabb([f32::NAN, 0.0, 0.0], [1.0; 3]),
+            aabb([2.0; 3], [0.5; 3]),
+        ];
+        let bvh = FootprintBvh::new(&boxes);
+        bvh.overlapping(&aabb([0.0; 3], [1e9; 3]), &mut out);
+        out.sort_unstable();
+        assert_eq!(out, vec![0, 2]);
+        assert_eq!(bvh.len(), 2);
+    }
+}
