@@ -16,12 +16,10 @@
 //! general formula in `f64` four photons at a time in SIMD lanes ([`parallelogram_means`]).
 //!
 //! A vanishing view footprint gives the kernel at the centre: the photon-differential estimate
-//! (`pd`). The gather reaches every photon whose footprint may overlap `V`: the map's radius bins
-//! grown by the view footprint's circumradius, as for the multi-sampled estimate.
+//! (`pd`). The gather asks the map for every photon whose footprint may overlap `V`
+//! ([`PhotonMap::covering`]), as the multi-sampled estimate does.
 
-use super::{
-    footprint_circumradius, on_query_surface, GatherCounts, GatherQuery, RadianceEstimator,
-};
+use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::disc_integral::{classify, general, Overlap};
 use crate::photons::map::PhotonMap;
 use glam::{DVec2, DVec3, Vec3};
@@ -174,11 +172,10 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
         } else {
             [Vec3::ZERO; 2]
         };
-        let reach = footprint_circumradius(&q.footprint);
-        let reach = if reach.is_finite() { reach } else { 0.0 };
         SCRATCH.with(|scratch| {
             let scratch = &mut *scratch.borrow_mut();
-            self.map.reaching(q.position, reach, &mut scratch.found);
+            self.map
+                .covering(q.position, &q.footprint, &mut scratch.found);
             counts.photons_found += scratch.found.len() as u64;
             let x = q.position.as_vec3();
             let n = q.normal.as_vec3();

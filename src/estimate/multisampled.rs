@@ -10,9 +10,7 @@
 //! `r^2 = |u|^2 + beta (2 u.b + beta |b|^2)` for `u = s + alpha a`: two multiply-adds per
 //! evaluation.
 
-use super::{
-    footprint_circumradius, on_query_surface, GatherCounts, GatherQuery, RadianceEstimator,
-};
+use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::photons::map::PhotonMap;
 use glam::{DVec3, Vec2, Vec3};
 use std::cell::RefCell;
@@ -183,11 +181,10 @@ impl RadianceEstimator for MultiSampledEstimate<'_> {
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
         counts.gathers += 1;
         let f = [q.footprint[0].as_vec3(), q.footprint[1].as_vec3()];
-        let reach = footprint_circumradius(&q.footprint);
-        let reach = if reach.is_finite() { reach } else { 0.0 };
         SCRATCH.with(|scratch| {
             let scratch = &mut *scratch.borrow_mut();
-            self.map.reaching(q.position, reach, &mut scratch.found);
+            self.map
+                .covering(q.position, &q.footprint, &mut scratch.found);
             counts.photons_found += scratch.found.len() as u64;
             let x = q.position.as_vec3();
             let n = q.normal.as_vec3();

@@ -25,7 +25,7 @@ impl RadianceEstimator for PhotonDifferentialEstimate<'_> {
         counts.gathers += 1;
         FOUND.with(|found| {
             let found = &mut *found.borrow_mut();
-            self.map.reaching(q.position, 0.0, found);
+            self.map.covering(q.position, &[DVec3::ZERO; 2], found);
             counts.photons_found += found.len() as u64;
             let x = q.position.as_vec3();
             let n = q.normal.as_vec3();

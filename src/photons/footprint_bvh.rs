@@ -54,6 +54,38 @@ pub fn footprint_box(p: &Photon) -> Aabb {
     }
 }
 
+/// Whether photon `p`'s kernel, seen from a query point at offset `v = x - x_p` on its surface
+/// slab, may be non-zero somewhere in the view footprint `x + alpha f0 + beta f1`,
+/// `|alpha|, |beta| <= 1/2`, given as `f = [M f0, M f1]` in the photon's filter space: the
+/// parallelogram `s + alpha a + beta b` (`s = M v`) and the unit disc are not separated along
+/// `s`'s direction (the bounding circle), nor along either edge's normal (separating axes).
+/// Exact in `M` (no assumption on its rows); a small slack covers rounding.
+#[inline]
+pub fn may_cover(p: &Photon, v: Vec3, f: [Vec3; 2]) -> bool {
+    const SLACK: f32 = 1e-4;
+    if p.normal.dot(v).abs() > OFF_PLANE_TOLERANCE * p.radius {
+        return false;
+    }
+    let s = glam::Vec2::new(p.m[0].dot(v), p.m[1].dot(v));
+    let a = glam::Vec2::new(p.m[0].dot(f[0]), p.m[1].dot(f[0]));
+    let b = glam::Vec2::new(p.m[0].dot(f[1]), p.m[1].dot(f[1]));
+    let reach = 0.5 * (a + b).length().max((a - b).length());
+    if s.length() > 1.0 + reach + SLACK {
+        return false;
+    }
+    // Along the normal of edge a (the perp of a): the parallelogram spans |s.n| +- |b.n| / 2.
+    for (e, o) in [(a, b), (b, a)] {
+        let len = e.length();
+        if len > 1e-20 {
+            let n = e.perp() / len;
+            if n.dot(s).abs() > 1.0 + 0.5 * n.dot(o).abs() + SLACK {
+                return false;
+            }
+        }
+    }
+    true
+}
+
 /// Photons per leaf at most.
 const LEAF_SIZE: usize = 4;
 
@@ -342,6 +374,48 @@ mod tests {
             for i in 0..3 {
                 prop_assert!(reached[i] >= 0.999 * half[i] - 1e-5, "{reached} vs {half}");
             }
+        }
+    }
+
+    proptest! {
+        /// Every sample point of the view footprint inside the kernel's support (the estimators'
+        /// own test) is covered by `may_cover`.
+        #[test]
+        fn may_cover_holds_every_covered_footprint(
+            a in prop::array::uniform3(-1f64..1.0),
+            b in prop::array::uniform3(-1f64..1.0),
+            n in prop::array::uniform3(-1f64..1.0),
+            v in prop::array::uniform3(-2f32..2.0),
+            f0 in prop::array::uniform3(-2f32..2.0),
+            f1 in prop::array::uniform3(-2f32..2.0),
+            scale in 0.01f64..1.0,
+            fscale in prop::sample::select(vec![0.0f32, 0.01, 0.1, 1.0]),
+        ) {
+            let n = DVec3::from(n);
+            prop_assume!(n.length() > 0.1);
+            let n = n.normalize();
+            let limits = FootprintLimits { min_radius: 1e-3, max_radius: 10.0, max_anisotropy: 20.0 };
+            let fp = footprint(
+                DVec3::from(a) * scale, DVec3::from(b) * scale, n, &limits, 0.1,
+                &mut Guards::default());
+            let p = Photon::new(DVec3::ZERO, n, -n, DVec3::ONE, &fp);
+            // Offsets near the photon's plane, so that the slab test passes often.
+            let v = Vec3::from(v) * scale as f32;
+            let v = v - p.normal * p.normal.dot(v) * 0.95;
+            let f = [Vec3::from(f0) * fscale * scale as f32, Vec3::from(f1) * fscale * scale as f32];
+            let covers = may_cover(&p, v, f);
+            let on_slab = p.normal.dot(v).abs() <= OFF_PLANE_TOLERANCE * p.radius;
+            let mut inside = 0;
+            for i in 0..=16 {
+                for j in 0..=16 {
+                    let y = v + f[0] * (i as f32 / 16.0 - 0.5) + f[1] * (j as f32 / 16.0 - 0.5);
+                    let r2 = p.m[0].dot(y).powi(2) + p.m[1].dot(y).powi(2);
+                    if on_slab && r2 < 1.0 {
+                        inside += 1;
+                    }
+                }
+            }
+            prop_assert!(covers || inside == 0, "{inside} points inside, not covered");
         }
     }
 

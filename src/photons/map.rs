@@ -3,7 +3,7 @@
 //! k-nearest queries.
 
 use crate::photons::footprint::{Footprint, Guards};
-use crate::photons::footprint_bvh::{footprint_box, Aabb, FootprintBvh};
+use crate::photons::footprint_bvh::{footprint_box, may_cover, Aabb, FootprintBvh};
 use glam::{DVec3, Vec3};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
@@ -130,6 +130,23 @@ impl PhotonMap {
             max: c + r + slack,
         };
         self.bvh.overlapping(&query, out);
+    }
+
+    /// Indices (any order) of a superset of the photons whose kernel may be non-zero somewhere in
+    /// the view footprint `x +- f[0]/2 +- f[1]/2` (zero for a point) for a query point `x` on
+    /// their surface: the footprint boxes overlapping the footprint's bounding cube, each then
+    /// tested in its own filter space ([`may_cover`]). Non-finite footprints count as points.
+    pub fn covering(&self, x: DVec3, footprint: &[DVec3; 2], out: &mut Vec<u32>) {
+        let finite = footprint[0].is_finite() && footprint[1].is_finite();
+        let f = if finite { *footprint } else { [DVec3::ZERO; 2] };
+        let reach = 0.5 * (f[0] + f[1]).length().max((f[0] - f[1]).length());
+        self.reaching(x, reach, out);
+        let c = x.as_vec3();
+        let f = [f[0].as_vec3(), f[1].as_vec3()];
+        out.retain(|&i| {
+            let p = &self.photons[i as usize];
+            may_cover(p, c - p.position, f)
+        });
     }
 
     /// The (at most) `k` nearest photons within `max_radius` of `x`, nearest first, as
