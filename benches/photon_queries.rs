@@ -1,0 +1,96 @@
+//! Photon queries against the photon count: for 2 x 10^4 to 1.28 x 10^6 caustic photons on the
+//! canonical scene, the footprint BVH's build time and, for `pd`, multi-sampled 8x8 and
+//! `integrated`, one pass's render stage and the photons the queries found and used per gather.
+//!
+//! Targets (issue 12): found at most 2x used; the render stage at 1.28M photons at most 3x its
+//! time at 20k (same settings, one pass); the build of 1.28M photons well under 0.5 s.
+//!
+//! Run: `cargo bench --bench photon_queries` (env PHOTONDIFF_QUERIES_MAX_PHOTONS caps the sweep).
+
+use photondiff::estimate::{EstimatorKind, EstimatorSettings, RadianceEstimator};
+use photondiff::photons::map::PhotonMap;
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::render::stats::Stats;
+use photondiff::render::{render_image, trace_photon_maps, RenderOptions};
+use photondiff::scene::file::load_scene;
+use std::path::Path;
+use std::time::Instant;
+
+fn main() {
+    let max: f64 = std::env::var("PHOTONDIFF_QUERIES_MAX_PHOTONS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1.28e6);
+    let path = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ));
+    let scene = load_scene(path).unwrap();
+    let device = photondiff::embree::Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let kinds = [
+        ("pd", EstimatorKind::Pd),
+        ("multisampled 8x8", EstimatorKind::Multisampled),
+        ("integrated", EstimatorKind::Integrated),
+    ];
+    println!("## Photon queries against caustic photons (canonical scene, one pass, 2 threads)\n");
+    println!("| caustic photons | map build s | estimator | render s | x 20k | found / used per gather | found / used |");
+    println!("|---|---|---|---|---|---|---|");
+    let mut first: Vec<f64> = Vec::new();
+    for count in [20_000usize, 80_000, 320_000, 1_280_000] {
+        if count as f64 > max * 1.05 {
+            break;
+        }
+        let options = PhotonOptions {
+            caustic_photons: count,
+            ..PhotonOptions::default()
+        };
+        let mut stats = Stats::default();
+        let maps = trace_photon_maps(&scene, &embree, &options, 0, false, &mut stats).unwrap();
+        // The caustic map's build alone, from the same photons (best of three).
+        let c = &maps.caustic;
+        let build = (0..3)
+            .map(|_| {
+                let photons = c.photons.clone();
+                let start = Instant::now();
+                let map = PhotonMap::new(c.class, photons, c.emitted, c.guards);
+                let t = start.elapsed().as_secs_f64();
+                drop(map);
+                t
+            })
+            .fold(f64::INFINITY, f64::min);
+        for (k, (name, kind)) in kinds.iter().enumerate() {
+            let settings = EstimatorSettings {
+                kind: *kind,
+                k: 50,
+                max_radius: options.limits(&scene).max_radius,
+                ms_grid: 8,
+                ellipse_vertices: 16,
+            };
+            let estimators = maps.estimators(&settings);
+            let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
+            let mut render_stats = Stats::default();
+            render_image(
+                &scene,
+                &embree,
+                &refs,
+                &RenderOptions::default(),
+                &mut render_stats,
+            )
+            .unwrap();
+            let render = render_stats.seconds("render");
+            if first.len() <= k {
+                first.push(render);
+            }
+            let g = render_stats.gathers;
+            let per = |n: u64| n as f64 / g.gathers.max(1) as f64;
+            println!(
+                "| {count} | {build:.3} | {name} | {render:.3} | {:.2} | {:.1} / {:.1} | {:.2} |",
+                render / first[k],
+                per(g.photons_found),
+                per(g.photons_used),
+                g.photons_found as f64 / g.photons_used.max(1) as f64
+            );
+        }
+    }
+}
