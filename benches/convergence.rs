@@ -16,6 +16,11 @@
 //! reference's two direct-light grids, default 16,17), `PHOTONDIFF_SCENES` (`canonical`,
 //! `stress` or `all`, default all), `PHOTONDIFF_THREADS` (default all cores).
 //!
+//! Also writes a report page per scene (`photondiff report`'s page) to
+//! `out/convergence/<scene>/index.html`: the chart, every method's image at the first, middle and
+//! last budget beside the reference, their error maps, crops of the floor, caustic, contour and
+//! shadow, and the table (also as `table.json` there).
+//!
 //! Asserted in the output (exit status 1 otherwise): the progressive `integrated` error falls
 //! monotonically over the budgets in every region whose error is above the reference's noise.
 
@@ -25,6 +30,7 @@ use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::cache::{load_or_make, Reference, ReferenceSettings};
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::reference::metrics::{rel_rmse, Regions};
+use photondiff::reference::report::{self, Chart, Render, Report, Table};
 use photondiff::render::film::Film;
 use photondiff::render::pass_sum::PassSum;
 use photondiff::render::passes::{Progressive, DEFAULT_ALPHA};
@@ -33,6 +39,7 @@ use photondiff::render::RenderOptions;
 use photondiff::scene::file::load_scene;
 use photondiff::scene::Scene;
 use plotters::prelude::*;
+use serde_json::Value;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
@@ -43,14 +50,19 @@ fn env_u64(name: &str, default: u64) -> u64 {
         .unwrap_or(default)
 }
 
+#[path = "convergence/chart.rs"]
+mod chart;
+
+/// Per budget: seconds actually used, the errors (floor, caustic, contour, shadow) and the image.
+type Points = Vec<(f64, [f64; 4], Film)>;
+
 /// One method's curve: the error per region at each budget.
-struct Curve {
+pub struct Curve {
     method: String,
-    /// Per budget: seconds actually used and the errors (floor, caustic, contour, shadow).
-    points: Vec<(f64, [f64; 4])>,
+    points: Points,
 }
 
-const REGIONS: [&str; 4] = ["floor", "caustic", "contour", "shadow"];
+pub const REGIONS: [&str; 4] = ["floor", "caustic", "contour", "shadow"];
 
 fn errors(image: &Film, reference: &Reference, regions: &Regions) -> [f64; 4] {
     let r = [
@@ -77,7 +89,7 @@ fn progressive(
     budgets: &[f64],
     threads: usize,
     (reference, regions): (&Reference, &Regions),
-) -> Result<Vec<(f64, [f64; 4])>, String> {
+) -> Result<Points, String> {
     let photons = PhotonOptions::default();
     let estimator = EstimatorSettings {
         kind,
@@ -99,24 +111,20 @@ fn progressive(
     let last = budgets.iter().cloned().fold(0.0, f64::max);
     let mut sum = PassSum::new(scene.camera.width, scene.camera.height);
     let start = Instant::now();
-    // (seconds at the end of the pass, errors of the mean after it)
-    let mut snapshots: Vec<(f64, [f64; 4])> = Vec::new();
+    // Per budget: the mean after the last pass that ended within it (the first pass if none did).
+    let mut chosen: Vec<Option<(f64, [f64; 4], Film)>> = vec![None; budgets.len()];
     while start.elapsed().as_secs_f64() < last {
         sum.add(&run.render_pass(sum.passes, false, &mut Stats::default())?);
         let t = start.elapsed().as_secs_f64();
-        snapshots.push((t, errors(&sum.mean(), reference, regions)));
+        let mean = sum.mean();
+        let e = errors(&mean, reference, regions);
+        for (c, &b) in chosen.iter_mut().zip(budgets) {
+            if t <= b || c.is_none() {
+                *c = Some((t, e, mean.clone()));
+            }
+        }
     }
-    Ok(budgets
-        .iter()
-        .map(|&b| {
-            snapshots
-                .iter()
-                .rev()
-                .find(|s| s.0 <= b)
-                .copied()
-                .unwrap_or(snapshots[0])
-        })
-        .collect())
+    Ok(chosen.into_iter().map(|c| c.expect("one pass")).collect())
 }
 
 fn light_tracer(
@@ -125,7 +133,7 @@ fn light_tracer(
     budgets: &[f64],
     reference: &Reference,
     regions: &Regions,
-) -> Vec<(f64, [f64; 4])> {
+) -> Points {
     budgets
         .iter()
         .map(|&b| {
@@ -142,6 +150,7 @@ fn light_tracer(
             (
                 start.elapsed().as_secs_f64(),
                 errors(&result.film, reference, regions),
+                result.film,
             )
         })
         .collect()
@@ -262,8 +271,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "\n#### {name} ({} x {})\n",
             scene.camera.width, scene.camera.height
         );
-        println!(
-            "Reference: direct light on {}x{0} and {}x{1} rays per pixel plus {paths} + {paths} caustic light paths; its noise (from its halves): {}.\n",
+        let reference_note = format!(
+            "Reference: direct light on {}x{0} and {}x{1} rays per pixel plus {paths} + {paths} caustic light paths; its noise (from its halves): {}.",
             grids[0],
             grids[1],
             REGIONS
@@ -273,23 +282,21 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 .collect::<Vec<_>>()
                 .join(", ")
         );
-        let header: Vec<String> = budgets.iter().map(|b| format!("{b} s")).collect();
-        println!("| method | region | {} |", header.join(" | "));
-        println!("|---|---|{}", "---|".repeat(budgets.len()));
+        println!("{reference_note}\n");
+        let mut columns = vec!["method".to_string(), "region".to_string()];
+        columns.extend(budgets.iter().map(|b| format!("{b} s")));
+        let mut rows = Vec::new();
         for curve in &curves {
             for (k, region) in REGIONS.iter().enumerate() {
                 if sets[k].is_empty() {
                     continue;
                 }
-                let cells: Vec<String> = curve
-                    .points
-                    .iter()
-                    .map(|p| {
-                        let mark = if p.1[k] < 3.0 * noise[k] { "~" } else { "" };
-                        format!("{mark}{:.4}", p.1[k])
-                    })
-                    .collect();
-                println!("| {} | {region} | {} |", curve.method, cells.join(" | "));
+                let mut row = vec![Value::from(curve.method.clone()), Value::from(*region)];
+                row.extend(curve.points.iter().map(|p| {
+                    let mark = if p.1[k] < 3.0 * noise[k] { "~" } else { "" };
+                    Value::from(format!("{mark}{:.4}", p.1[k]))
+                }));
+                rows.push(row);
                 for (b, p) in budgets.iter().zip(&curve.points) {
                     csv += &format!(
                         "{name},{},{b},{:.3},{region},{:.6},{:.6}\n",
@@ -298,6 +305,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
         }
+        let table = Table {
+            title: format!("Error against time: {name}"),
+            columns,
+            rows,
+            notes: vec![format!("relRMSE per region at each time budget; {reference_note} `~`: below three times the reference's noise there, which it cannot resolve.")],
+        };
+        print!("{}", table.markdown());
         // The progressive default must fall monotonically wherever the reference can tell.
         let ours = &curves[0];
         for (k, region) in REGIONS.iter().enumerate() {
@@ -316,14 +330,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for (file, backend_png) in [("svg", false), ("png", true)] {
             let path = out.join(format!("convergence-{name}.{file}"));
             if backend_png {
-                chart(
+                chart::chart(
                     BitMapBackend::new(&path, (1000, 700)).into_drawing_area(),
                     name,
                     &curves,
                     &sets,
                 )?;
             } else {
-                chart(
+                chart::chart(
                     SVGBackend::new(&path, (1000, 700)).into_drawing_area(),
                     name,
                     &curves,
@@ -331,10 +345,44 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 )?;
             }
         }
+
+        // The run as a report page: each method at the first, middle and last budget.
+        let mut shown = vec![0, budgets.len() / 2, budgets.len() - 1];
+        shown.dedup();
+        let budgets = &budgets;
+        let renders = curves
+            .iter()
+            .flat_map(|c| {
+                shown.iter().map(move |&i| Render {
+                    label: format!(
+                        "{}: {} s budget (image of {:.1} s)",
+                        c.method, budgets[i], c.points[i].0
+                    ),
+                    film: c.points[i].2.clone(),
+                })
+            })
+            .collect();
+        let page = report::write_with_tables(
+            &Report {
+                title: format!("Error against time: {name}"),
+                notes: vec![reference_note, report::REGIONS_NOTE.to_string()],
+                reference: Render {
+                    label: "reference".into(),
+                    film: reference.film.clone(),
+                },
+                renders,
+                regions: report::scene_regions(&regions, reference.film.pixels.len()),
+                tables: vec![table],
+                charts: vec![Chart::File(out.join(format!("convergence-{name}.svg")))],
+                exposure: 0.0,
+            },
+            &out.join("convergence").join(name),
+        )?;
+        eprintln!("report: {}", page.display());
     }
     std::fs::write(out.join("convergence.csv"), csv)?;
     println!(
-        "\nWrote {} and out/convergence-<scene>.{{svg,png}}.",
+        "\nWrote {}, out/convergence-<scene>.{{svg,png}} and out/convergence/<scene>/index.html.",
         out.join("convergence.csv").display()
     );
     if failed.is_empty() {
@@ -346,79 +394,4 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         std::process::exit(1)
     }
-}
-
-fn chart<DB: DrawingBackend>(
-    area: DrawingArea<DB, plotters::coord::Shift>,
-    name: &str,
-    curves: &[Curve],
-    sets: &[&Vec<usize>; 4],
-) -> Result<(), Box<dyn std::error::Error>>
-where
-    DB::ErrorType: 'static,
-{
-    area.fill(&WHITE)?;
-    let finite = |v: f64| v.is_finite() && v > 0.0;
-    let all: Vec<(f64, f64)> = curves
-        .iter()
-        .flat_map(|c| {
-            c.points
-                .iter()
-                .flat_map(|p| p.1.iter().map(move |e| (p.0, *e)))
-        })
-        .filter(|p| finite(p.0) && finite(p.1))
-        .collect();
-    let (tmin, tmax) = all
-        .iter()
-        .fold((f64::MAX, 0.0f64), |(a, b), p| (a.min(p.0), b.max(p.0)));
-    let (emin, emax) = all
-        .iter()
-        .fold((f64::MAX, 0.0f64), |(a, b), p| (a.min(p.1), b.max(p.1)));
-    let mut chart = ChartBuilder::on(&area)
-        .caption(format!("{name}: error against time"), ("sans-serif", 22))
-        .margin(15)
-        .x_label_area_size(45)
-        .y_label_area_size(65)
-        .build_cartesian_2d(
-            (tmin * 0.8..tmax * 1.25).log_scale(),
-            (emin * 0.8..emax * 1.25).log_scale(),
-        )?;
-    chart
-        .configure_mesh()
-        .x_desc("seconds, log scale")
-        .y_desc("relRMSE, log scale")
-        .x_label_formatter(&|v| format!("{v:.2}"))
-        .y_label_formatter(&|v| format!("{v:.3}"))
-        .label_style(("sans-serif", 14))
-        .draw()?;
-    for (ci, curve) in curves.iter().enumerate() {
-        for (ri, region) in REGIONS.iter().enumerate() {
-            if sets[ri].is_empty() || *region == "contour" {
-                continue;
-            }
-            let color = Palette99::pick(ci).to_rgba();
-            let series: Vec<(f64, f64)> = curve
-                .points
-                .iter()
-                .map(|p| (p.0, p.1[ri]))
-                .filter(|p| finite(p.0) && finite(p.1))
-                .collect();
-            let width = if ri == 1 { 3 } else { 1 };
-            chart
-                .draw_series(LineSeries::new(series.clone(), color.stroke_width(width)))?
-                .label(format!("{} - {region}", curve.method))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(width))
-                });
-            chart.draw_series(series.iter().map(|p| Circle::new(*p, 3, color.filled())))?;
-        }
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 12))
-        .draw()?;
-    area.present()?;
-    Ok(())
 }

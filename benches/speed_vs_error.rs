@@ -75,6 +75,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ),
         ("Coplanar", vec![Method::coplanar()]),
         ("Jensen", vec![Method::jensen(1), Method::jensen(3)]),
+        (
+            "Footprint-integrated",
+            vec![Method::integrated(), Method::integrated_default()],
+        ),
     ];
     let mut points = Vec::new();
     let mut crops: Vec<(String, Film)> = Vec::new();
@@ -114,6 +118,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     Method::coplanar(),
                     Method::multisampled(8),
                     Method::jensen(1),
+                    Method::integrated_default(),
                 ];
                 if scale == 1 && shown.contains(method) {
                     crops.push((method.label(), film));

@@ -33,6 +33,7 @@ fn methods() -> Vec<Method> {
         Method::regular(3),
         Method::coplanar(),
         Method::multisampled(8),
+        Method::integrated_default(),
     ]
 }
 

@@ -7,15 +7,15 @@
 //!
 //! Also writes an HTML report of the run (`photondiff report`'s page) to
 //! `out/timing_table/index.html`: every row's image beside the reference, error maps, crops of
-//! the floor, caustic and contour, the table and a chart of time against caustic error; the
-//! table as `out/timing_table/table.json` (for `photondiff report --table`).
+//! the floor, caustic, contour and shadow, the table and a chart of time against caustic error;
+//! the table as `out/timing_table/table.json` (for `photondiff report --table`).
 
 use photondiff::embree::Device;
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::chart::{scatter_svg, Point};
 use photondiff::reference::experiment::Method;
 use photondiff::reference::metrics::{rel_rmse, ssim, Regions};
-use photondiff::reference::report::{self, Chart, Region, Render, Report, Table};
+use photondiff::reference::report::{self, Chart, Render, Report, Table};
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::scene::file::load_scene;
@@ -81,6 +81,7 @@ fn main() -> Result<(), String> {
         (Method::coplanar(), Some(18.42)),
         (Method::multisampled(8), Some(3.09)),
         (Method::integrated(), None),
+        (Method::integrated_default(), None),
         (Method::jensen(1), None),
         (Method::jensen(3), None),
         (Method::multisampled(1), None),
@@ -114,8 +115,6 @@ fn main() -> Result<(), String> {
     println!("Error: relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) against a reference of direct light on 16x16 and 17x17 rays per pixel plus {paths} + {paths} caustic light paths for the rest, over the floor ({} px), the caustic ({} px: reference > 1.5 x unblocked direct light) and its contour ({} px: the tenth of the caustic with the largest reference gradient); SSIM on sRGB luminance over the whole image.", regions.diffuse.len(), regions.caustic.len(), regions.contour.len());
     println!("Reference noise (relative, from its two halves): floor {:.4}, caustic {:.4}, contour {:.4}.\n",
         reference.relative_noise(&regions.diffuse), reference.relative_noise(&regions.caustic), reference.relative_noise(&regions.contour));
-    println!("| method | rendering time (s) | ratio to regular 1x1 | thesis ratio | relRMSE floor | relRMSE caustic | relRMSE contour | SSIM |");
-    println!("|---|---|---|---|---|---|---|---|");
     let mut table_rows = Vec::new();
     let mut points = Vec::new();
     for (k, (method, thesis)) in rows.iter().enumerate() {
@@ -128,17 +127,6 @@ fn main() -> Result<(), String> {
             ssim(film, &reference.film),
         ];
         let thesis = thesis.map_or("".to_string(), |r| format!("{r:.2}"));
-        println!(
-            "| {} | {:.3} | {:.2} | {} | {:.4} | {:.4} | {:.4} | {:.4} |",
-            method.label(),
-            t,
-            t / base,
-            thesis,
-            errors[0],
-            errors[1],
-            errors[2],
-            errors[3],
-        );
         let mut row = vec![
             method.label().into(),
             format!("{t:.3}").into(),
@@ -155,7 +143,6 @@ fn main() -> Result<(), String> {
     }
 
     // The run as a report page.
-    let dir = root.join("out/timing_table");
     let table = Table {
         title: "Timing table".into(),
         columns: ["method", "rendering time (s)", "ratio to regular 1x1", "thesis ratio", "relRMSE floor", "relRMSE caustic", "relRMSE contour", "SSIM"]
@@ -166,32 +153,18 @@ fn main() -> Result<(), String> {
             options.global_photons, options.caustic_photons, pool.current_num_threads()
         )],
     };
-    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
-    std::fs::write(
-        dir.join("table.json"),
-        serde_json::to_string_pretty(&table).map_err(|e| e.to_string())?,
-    )
-    .map_err(|e| e.to_string())?;
-    let mask = |pixels: &[usize]| {
-        let mut m = vec![false; reference.film.pixels.len()];
-        pixels.iter().for_each(|&i| m[i] = true);
-        m
-    };
-    let page = report::write(
+    print!("{}", table.markdown());
+    let page = report::write_with_tables(
         &Report {
             title: "Timing table: canonical scene".into(),
-            notes: vec![format!("Reference: light tracing, {paths} paths. Regions: floor = first hit diffuse; caustic = reference above 1.5 x the unblocked direct light; contour = the tenth of the caustic with the largest reference gradient.")],
+            notes: vec![format!("Reference: direct light on 16x16 and 17x17 rays per pixel plus {paths} + {paths} caustic light paths."), report::REGIONS_NOTE.to_string()],
             reference: Render { label: "reference".into(), film: reference.film.clone() },
             renders: rows
                 .iter()
                 .zip(&films)
                 .map(|((m, _), f)| Render { label: m.label(), film: f.clone().expect("rendered") })
                 .collect(),
-            regions: vec![
-                Region { name: "floor".into(), mask: mask(&regions.diffuse) },
-                Region { name: "caustic".into(), mask: mask(&regions.caustic) },
-                Region { name: "contour".into(), mask: mask(&regions.contour) },
-            ],
+            regions: report::scene_regions(&regions, reference.film.pixels.len()),
             tables: vec![table],
             charts: vec![Chart::Svg {
                 name: "rendering time against caustic error".into(),
@@ -199,7 +172,7 @@ fn main() -> Result<(), String> {
             }],
             exposure: 0.0,
         },
-        &dir,
+        &root.join("out/timing_table"),
     )?;
     eprintln!("report: {}", page.display());
 

@@ -6,7 +6,7 @@ use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::pass_part::write_pass_part;
-use photondiff::render::passes::{PassReport, DEFAULT_ALPHA};
+use photondiff::render::passes::{PassReport, DEFAULT_ALPHA, DEFAULT_PASSES};
 use photondiff::render::stats::Stats;
 use photondiff::render::{
     load_photon_maps, Progressive, RenderOptions, StopRules, TileSplit, Window,
@@ -379,10 +379,6 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     println!("wrote {} and {}", exr.display(), png.display());
     Ok(())
 }
-
-/// Passes of the default estimator, `integrated`: chosen so that `make render` stays
-/// interactive (README, "Progressive passes").
-const DEFAULT_PASSES: u64 = 2;
 
 /// The estimator asked for, `integrated` by default.
 fn estimator_kind(args: &RenderArgs) -> EstimatorKind {

@@ -73,28 +73,6 @@ fn parse_render(arg: &str) -> (String, PathBuf) {
     (label, path)
 }
 
-fn read_table(path: &Path) -> Result<Table, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
-    let table: Table = serde_json::from_str(&text)
-        .map_err(|e| format!("{}: not a report table: {e}", path.display()))?;
-    if let Some((k, row)) = table
-        .rows
-        .iter()
-        .enumerate()
-        .find(|(_, r)| r.len() != table.columns.len())
-    {
-        return Err(format!(
-            "{}: row {} has {} cells but there are {} columns",
-            path.display(),
-            k + 1,
-            row.len(),
-            table.columns.len()
-        ));
-    }
-    Ok(table)
-}
-
 /// The scene's regions of interest for `reference`.
 fn scene_regions(path: &Path, reference: &Film) -> Result<Vec<Region>, String> {
     let scene = load_scene(path).map_err(|e| e.to_string())?;
@@ -111,28 +89,7 @@ fn scene_regions(path: &Path, reference: &Film) -> Result<Vec<Region>, String> {
     let device = Device::new().map_err(|e| e.to_string())?;
     let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
     let regions = Regions::new(&scene, &embree, reference);
-    let n = reference.pixels.len();
-    let mask = |pixels: &[usize]| {
-        let mut m = vec![false; n];
-        for &i in pixels {
-            m[i] = true;
-        }
-        m
-    };
-    Ok(vec![
-        Region {
-            name: "floor".into(),
-            mask: mask(&regions.diffuse),
-        },
-        Region {
-            name: "caustic".into(),
-            mask: mask(&regions.caustic),
-        },
-        Region {
-            name: "contour".into(),
-            mask: mask(&regions.contour),
-        },
-    ])
+    Ok(report::scene_regions(&regions, reference.pixels.len()))
 }
 
 pub fn run(args: &ReportArgs) -> Result<(), String> {
@@ -168,7 +125,7 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
     let tables = args
         .tables
         .iter()
-        .map(|p| read_table(p))
+        .map(|p| Table::read(p))
         .collect::<Result<Vec<_>, _>>()?;
     for c in &args.charts {
         std::fs::metadata(c).map_err(|e| format!("{}: cannot open: {e}", c.display()))?;
@@ -176,8 +133,9 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
     let mut notes = vec![format!("Reference: {}.", args.reference.display())];
     if let Some(scene) = &args.scene {
         notes.push(format!(
-            "Regions of the scene {}: floor = pixels whose camera ray first hits a diffuse surface; caustic = floor pixels where the reference exceeds 1.5 x the unblocked direct light; contour = the tenth of the caustic with the largest reference gradient.",
-            scene.display()
+            "Scene: {}. {}",
+            scene.display(),
+            report::REGIONS_NOTE
         ));
     }
     let report = Report {

@@ -7,6 +7,9 @@ use crate::estimate::{EstimatorKind, EstimatorSettings};
 use crate::photons::trace::PhotonOptions;
 use crate::photons::PhotonMaps;
 use crate::render::film::Film;
+use crate::render::image::render_image;
+use crate::render::pass_sum::PassSum;
+use crate::render::passes::{Progressive, DEFAULT_ALPHA, DEFAULT_PASSES};
 use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
 use crate::scene::Scene;
@@ -20,6 +23,8 @@ pub struct Method {
     pub view_grid: u32,
     /// Sample grid of the multi-sampled estimate.
     pub ms_grid: u32,
+    /// Progressive passes (1: a single render from the shared photon maps).
+    pub passes: u64,
 }
 
 impl Method {
@@ -29,6 +34,7 @@ impl Method {
             kind: EstimatorKind::Pd,
             view_grid: n,
             ms_grid: 1,
+            passes: 1,
         }
     }
     /// Jensen's estimate with `n x n` camera rays per pixel.
@@ -37,6 +43,7 @@ impl Method {
             kind: EstimatorKind::Jensen,
             view_grid: n,
             ms_grid: 1,
+            passes: 1,
         }
     }
     /// Coplanar intersection-weighted photon differentials, one camera ray per pixel.
@@ -45,6 +52,7 @@ impl Method {
             kind: EstimatorKind::Coplanar,
             view_grid: 1,
             ms_grid: 1,
+            passes: 1,
         }
     }
     /// Multi-sampled photon differentials with `n x n` sample points, one camera ray per pixel.
@@ -53,6 +61,7 @@ impl Method {
             kind: EstimatorKind::Multisampled,
             view_grid: 1,
             ms_grid: n,
+            passes: 1,
         }
     }
 
@@ -62,13 +71,23 @@ impl Method {
             kind: EstimatorKind::Integrated,
             view_grid: 1,
             ms_grid: 1,
+            passes: 1,
+        }
+    }
+
+    /// Footprint-integrated as `photondiff render` does by default: with its default progressive
+    /// passes.
+    pub fn integrated_default() -> Self {
+        Method {
+            passes: DEFAULT_PASSES,
+            ..Self::integrated()
         }
     }
 
     /// A name for tables and charts.
     pub fn label(&self) -> String {
         let n = self.view_grid;
-        match self.kind {
+        let name = match self.kind {
             EstimatorKind::Pd => format!("Regular (photon differentials) {n}x{n}"),
             EstimatorKind::Jensen => format!("Jensen {n}x{n}"),
             EstimatorKind::Coplanar => "Coplanar intersection-weighted".to_string(),
@@ -76,11 +95,17 @@ impl Method {
             EstimatorKind::Integrated => "Footprint-integrated".to_string(),
             EstimatorKind::Direct => "Direct light only".to_string(),
             EstimatorKind::Lighttrace => "Light tracing".to_string(),
+        };
+        match self.passes {
+            1 => name,
+            p => format!("{name}, {p} passes"),
         }
     }
 
     /// Renders `scene` with this method from `maps` on `threads` threads (0 = all); returns the
-    /// image and the rendering time in seconds (photon tracing excluded).
+    /// image and the rendering time in seconds (photon tracing excluded). With passes, pass 0
+    /// renders from `maps` and each later pass traces photons of its own, as `photondiff render
+    /// --passes` does: that tracing counts as rendering time.
     pub fn render(
         &self,
         scene: &Scene,
@@ -102,7 +127,28 @@ impl Method {
             .with_view_grid(self.view_grid)
             .with_threads(threads);
         let mut stats = Stats::default();
-        let film = render(scene, embree, &refs, &options, &mut stats)?;
-        Ok((film, stats.seconds("render")))
+        if self.passes <= 1 {
+            let film = render(scene, embree, &refs, &options, &mut stats)?;
+            return Ok((film, stats.seconds("render")));
+        }
+        let run = Progressive {
+            scene,
+            embree,
+            photons: photon_options.clone(),
+            estimator: settings,
+            render: options,
+            alpha: DEFAULT_ALPHA,
+        };
+        // Pass 0's settings with the shared maps (its estimate equals the single render's).
+        let (_, settings, options) = run.pass_settings(0);
+        let estimators = maps.estimators(&settings);
+        let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
+        let mut sum = PassSum::new(scene.camera.width, scene.camera.height);
+        sum.add(&render_image(scene, embree, &refs, &options, &mut stats)?);
+        for pass in 1..self.passes {
+            sum.add(&run.render_pass(pass, false, &mut stats)?);
+        }
+        let seconds = stats.seconds("render") + stats.seconds("trace photons");
+        Ok((sum.mean(), seconds))
     }
 }

@@ -15,4 +15,5 @@ pub mod light_tracer;
 pub mod metrics;
 pub mod report;
 mod report_assets;
+pub mod report_table;
 pub mod stability;

@@ -5,9 +5,10 @@
 use super::channels::ChannelImage;
 use super::compare::{measure, relative_error_per_pixel};
 use super::error_map;
+use super::metrics::Regions;
 use super::report_assets::{BODY_SCRIPT, HEAD_SCRIPT, STYLE};
+pub use super::report_table::Table;
 use crate::render::film::{linear_to_srgb, Film};
-use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -27,20 +28,35 @@ pub struct Region {
     pub mask: Vec<bool>,
 }
 
-/// A table (the timing table, say); its JSON form is what `photondiff report --table` reads:
-/// `{"title": "...", "columns": ["..."], "rows": [["text", 1.5, ...]], "notes": ["..."]}`.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Table {
-    /// Its heading.
-    pub title: String,
-    /// Column headings.
-    pub columns: Vec<String>,
-    /// Rows of strings or numbers, as many cells as columns.
-    pub rows: Vec<Vec<serde_json::Value>>,
-    /// Lines of text under the table.
-    #[serde(default)]
-    pub notes: Vec<String>,
+impl Region {
+    /// The region `name` of the pixels `pixels` (row-major indices) of an image of `n` pixels.
+    pub fn of_pixels(name: &str, pixels: &[usize], n: usize) -> Region {
+        let mut mask = vec![false; n];
+        for &i in pixels {
+            mask[i] = true;
+        }
+        Region {
+            name: name.to_string(),
+            mask,
+        }
+    }
+}
+
+/// How [`scene_regions`] chooses its pixels, for a report's notes.
+pub const REGIONS_NOTE: &str = "Regions: floor = pixels whose camera ray first hits a diffuse surface; caustic = floor pixels where the reference exceeds 1.5 x the unblocked direct light; contour = the tenth of the caustic with the largest reference gradient; shadow = floor pixels outside the caustic where every point and spot light is blocked (though some would light them unblocked).";
+
+/// A scene's regions of interest (an image of `n` pixels) as the benchmarks and `photondiff
+/// report --scene` show them: floor, caustic, contour and shadow (a region may be empty).
+pub fn scene_regions(regions: &Regions, n: usize) -> Vec<Region> {
+    [
+        ("floor", &regions.diffuse),
+        ("caustic", &regions.caustic),
+        ("contour", &regions.contour),
+        ("shadow", &regions.shadow),
+    ]
+    .into_iter()
+    .map(|(name, pixels)| Region::of_pixels(name, pixels, n))
+    .collect()
 }
 
 /// A chart: an existing image file copied into the report, or SVG text written into it.
@@ -125,12 +141,18 @@ fn cell(v: Option<f64>) -> String {
     v.map_or("-".into(), |v| format!("{v:.4}"))
 }
 
-fn json_cell(v: &serde_json::Value) -> String {
-    match v {
-        serde_json::Value::String(s) => escape(s),
-        serde_json::Value::Null => String::new(),
-        other => escape(&other.to_string()),
+/// [`write`], and each table beside the page as JSON for `photondiff report --table`:
+/// `table.json`, then `table-2.json` and on.
+pub fn write_with_tables(report: &Report, dir: &Path) -> Result<PathBuf, String> {
+    let page = write(report, dir)?;
+    for (k, table) in report.tables.iter().enumerate() {
+        let name = match k {
+            0 => "table.json".to_string(),
+            k => format!("table-{}.json", k + 1),
+        };
+        table.write(&dir.join(name))?;
     }
+    Ok(page)
 }
 
 /// Writes the report into `dir` (created if needed): `index.html` and its images under `img/`.
@@ -307,7 +329,11 @@ pub fn write(report: &Report, dir: &Path) -> Result<PathBuf, String> {
         for row in &t.rows {
             html.push_str("<tr>");
             for v in row {
-                let _ = write!(html, "<td>{}</td>", json_cell(v));
+                let _ = write!(
+                    html,
+                    "<td>{}</td>",
+                    escape(&super::report_table::cell_text(v))
+                );
             }
             html.push_str("</tr>\n");
         }

@@ -44,6 +44,10 @@ use serde::Serialize;
 use std::ops::Range;
 use std::time::{Duration, Instant};
 
+/// Passes of the default estimator, `integrated`: chosen so that `make render` stays
+/// interactive (README, "Progressive passes").
+pub const DEFAULT_PASSES: u64 = 2;
+
 /// Default `alpha` of the footprint schedule.
 pub const DEFAULT_ALPHA: f64 = 2.0 / 3.0;
 
