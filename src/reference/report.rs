@@ -286,6 +286,19 @@ pub fn write(report: &Report, dir: &Path) -> Result<PathBuf, String> {
             let _ = writeln!(html, "<h3>{} (no pixel)</h3>", escape(&region.name));
             continue;
         };
+        // A crop of most of the image would repeat the images above at their size: say so instead.
+        if 2 * b.2 * b.3 > w * h {
+            let _ = writeln!(
+                html,
+                "<h3>{} ({count} px; its box, {} x {} at ({}, {}), is most of the image: see the images above)</h3>",
+                escape(&region.name),
+                b.2,
+                b.3,
+                b.0,
+                b.1
+            );
+            continue;
+        }
         let scale = (200 / b.2.max(b.3)).clamp(1, 8);
         let _ = writeln!(
             html,
