@@ -155,6 +155,15 @@ fn make_report(dir: &Path) -> PathBuf {
     }
     .write_exr(&dir.join("spot.exr"))
     .unwrap();
+    // A region whose box is the whole image: not cropped (the images show it).
+    ChannelImage {
+        width: w as usize,
+        height: h as usize,
+        names: vec!["Y".into()],
+        planes: vec![vec![1.0; (w * h) as usize]],
+    }
+    .write_exr(&dir.join("everywhere.exr"))
+    .unwrap();
     std::fs::write(
         dir.join("table.json"),
         r#"{"title": "Timing table", "columns": ["method", "time (s)", "relRMSE"],
@@ -188,6 +197,8 @@ fn make_report(dir: &Path) -> PathBuf {
         .arg(format!("noisy render={}", dir.join("noisy.exr").display()))
         .arg("--mask")
         .arg(dir.join("spot.exr"))
+        .arg("--mask")
+        .arg(dir.join("everywhere.exr"))
         .arg("--table")
         .arg(dir.join("table.json"))
         .arg("--chart")
@@ -230,8 +241,13 @@ fn report_loads_cleanly_in_headless_chromium() {
         "no network"
     );
     let images = html.matches("<img ").count();
-    // 3 images + 2 error maps + colour bar + (3 images + 2 maps) crops + chart.
+    // 3 images + 2 error maps + colour bar + (3 images + 2 maps) crops of the spot + chart; none
+    // of the region that covers the whole image.
     assert_eq!(images, 12);
+    assert!(
+        html.contains("<h3>everywhere (6144 px; its box, 96 x 64 at (0, 0), is most of the image: see the images above)</h3>"),
+        "{html}"
+    );
 
     let (dom, err) = chromium(&page, dir.path(), &["--dump-dom".into()]);
     assert_eq!(
