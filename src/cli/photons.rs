@@ -19,7 +19,7 @@ pub struct PhotonsArgs {
     /// The photon-map file to write.
     #[arg(short = 'o', long = "output", value_name = "MAPS")]
     output: PathBuf,
-    /// Global photons: emissions traced for the global map (as `render --photons`).
+    /// Photons stored in the global map (as `render --photons`).
     #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
     global_photons: usize,
     /// Photons stored in the caustic map (as `render --caustic-photons`).
@@ -70,6 +70,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         progress,
         &mut stats,
     )?;
+    super::render::warn_shortfalls(&args.scene, &stats);
     let counts: [TraceCounts; 2] = [0, 1].map(|i| {
         let m = &stats.photon_maps[i];
         TraceCounts {

@@ -55,7 +55,8 @@ pub struct RenderArgs {
     /// Default: `integrated` with progressive passes (see --passes).
     #[arg(long, value_enum)]
     estimator: Option<EstimatorKind>,
-    /// Global photons: emissions traced for the global map (indirect light).
+    /// Photons stored in the global map (indirect light); emission stops at 4 emissions per
+    /// photon asked for, with a warning if fewer were stored.
     #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
     global_photons: usize,
     /// Photons stored in the caustic map.
@@ -276,6 +277,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         }
     };
 
+    warn_shortfalls(&args.scene, &stats);
     let stem = args
         .scene
         .file_stem()
@@ -452,4 +454,18 @@ fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
             p.noise.caustic_pixels.to_string(),
         ),
     ]
+}
+
+/// Tells, once per map class and whatever --quiet says, that a photon map holds fewer photons
+/// than asked for (the statistics say so too).
+pub(crate) fn warn_shortfalls(scene: &Path, stats: &photondiff::render::stats::Stats) {
+    let mut told = Vec::new();
+    for m in &stats.photon_maps {
+        if let Some(message) = m.shortfall() {
+            if !told.contains(&m.class) {
+                told.push(m.class);
+                eprintln!("photondiff: warning: {}: {message}", scene.display());
+            }
+        }
+    }
 }

@@ -1,7 +1,8 @@
 //! Photon maps as files: traced once (`photondiff photons`), read by every process of a split
 //! render (`render --photon-maps`).
 //!
-//! Format, version 1, all integers and floats little-endian:
+//! Format, version 2 (version 1 counted `--photons` as global emissions, not stored photons;
+//! its files are refused), all integers and floats little-endian:
 //!
 //! | bytes | content |
 //! |---|---|
@@ -31,7 +32,7 @@ use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"PDPHOTON";
 /// The format version this build writes and reads.
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 const PHOTON_BYTES: usize = 20 * 4;
 const MAP_HEADER_BYTES: usize = 8 * 8;
 

@@ -22,10 +22,10 @@ use std::f64::consts::PI;
 /// Settings of photon tracing. `PhotonOptions::default()` gives the documented defaults.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PhotonOptions {
-    /// Global photons: emissions traced for the global map. Default 100,000 (the thesis's
-    /// count). Counted as emissions, not stored photons: in an open scene such as the canonical
-    /// one almost all light leaves after its first diffuse bounce, and storing 100,000 photons
-    /// after a diffuse bounce would take about 100 million emissions.
+    /// Global photons: photons stored in the global map, as for the caustic map; emission
+    /// stops at [`GLOBAL_EMISSIONS_PER_PHOTON`] emissions per photon asked for even if fewer
+    /// were stored (the statistics and the command line say so). Default 100,000 (the
+    /// thesis's count).
     pub global_photons: usize,
     /// Caustic photons: photons stored in the caustic map. Default 20,000 (the thesis's count).
     /// Aimed at the specular objects, they cost about as many emissions.
@@ -105,10 +105,23 @@ pub struct PhotonTracer<'a> {
     paths: LightPaths<'a>,
 }
 
+/// The cap of [`StopRule::Stored`] for the caustic map: emissions per photon asked for.
+/// Caustic photons are aimed at the specular objects, so a scene where fewer than one
+/// emission in this many stores one has (almost) no caustics.
+pub const EMISSIONS_PER_PHOTON: u64 = 1000;
+
+/// The cap of [`StopRule::Stored`] for the global map: emissions per photon asked for. Global
+/// photons are stored at every diffuse bounce after the first, so a closed scene stores one or
+/// more per emission; an open scene stores few (the canonical scene about 1 in 1,700: its
+/// 100,000 photons would take 170 million emissions) and ends at this cap with fewer photons
+/// than asked for, which the statistics and the command line report. It keeps the default
+/// render of an open scene fast: 400,000 emissions for the default 100,000 photons.
+pub const GLOBAL_EMISSIONS_PER_PHOTON: u64 = 4;
+
 /// When a map is complete.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StopRule {
-    /// After this many photons are stored (or after 1000 emissions per photon asked for).
+    /// After this many photons are stored, or after [`max_emissions`] emissions.
     Stored(usize),
     /// After this many emissions.
     Emitted(usize),
@@ -123,6 +136,17 @@ pub struct TraceCounts {
     pub stored: u64,
     /// Rays traced.
     pub rays: u64,
+}
+
+/// Emissions after which [`StopRule::Stored`]`(n)` stops for a map of `class`:
+/// [`GLOBAL_EMISSIONS_PER_PHOTON`] per photon for the global map, [`EMISSIONS_PER_PHOTON`]
+/// for the others, and at least 4096.
+pub fn max_emissions(class: PathClass, n: usize) -> u64 {
+    let per = match class {
+        PathClass::Global => GLOBAL_EMISSIONS_PER_PHOTON,
+        _ => EMISSIONS_PER_PHOTON,
+    };
+    (n as u64).saturating_mul(per).max(4096)
 }
 
 impl<'a> PhotonTracer<'a> {
@@ -195,7 +219,7 @@ impl<'a> PhotonTracer<'a> {
         };
         let (target, max_emissions) = match stop {
             // A cap for scenes where the class is rare (it is reported in the statistics).
-            StopRule::Stored(n) => (n, (n as u64).saturating_mul(1000).max(BATCH)),
+            StopRule::Stored(n) => (n, max_emissions(class, n)),
             StopRule::Emitted(n) => (usize::MAX, n as u64),
         };
         let mut traced: Vec<TracedPhoton> = Vec::new();

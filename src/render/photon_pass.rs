@@ -5,7 +5,7 @@ use super::stats::{MapStats, Stats};
 use crate::embree;
 use crate::photons::emission::Emitter;
 use crate::photons::map::PathClass;
-use crate::photons::trace::{PhotonOptions, PhotonTracer, StopRule, TraceCounts};
+use crate::photons::trace::{max_emissions, PhotonOptions, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
 
@@ -45,14 +45,14 @@ pub fn trace_photon_maps(
             let (global, g) = tracer.build_map(
                 &global_emitter,
                 PathClass::Global,
-                StopRule::Emitted(options.global_photons),
+                StopRule::Stored(options.global_photons),
                 &bar,
             );
             (PhotonMaps { caustic, global }, [c, g])
         })
     });
     bar.finish_and_clear();
-    record(&maps, &counts, stats);
+    record(&maps, &counts, options, stats);
     Ok(maps)
 }
 
@@ -68,13 +68,20 @@ pub fn load_photon_maps(
     let (maps, counts) = stats.time("load photons", || {
         crate::photons::file::read(path, scene_hash, options)
     })?;
-    record(&maps, &counts, stats);
+    record(&maps, &counts, options, stats);
     Ok(maps)
 }
 
 /// Records the maps' statistics.
-fn record(maps: &PhotonMaps, counts: &[TraceCounts; 2], stats: &mut Stats) {
-    for (map, c) in [&maps.caustic, &maps.global].into_iter().zip(counts) {
+fn record(
+    maps: &PhotonMaps,
+    counts: &[TraceCounts; 2],
+    options: &PhotonOptions,
+    stats: &mut Stats,
+) {
+    let asked = [options.caustic_photons, options.global_photons];
+    let maps = [&maps.caustic, &maps.global];
+    for ((map, c), asked) in maps.into_iter().zip(counts).zip(asked) {
         let p = map.total_power();
         stats.photon_maps.push(MapStats {
             class: map.class,
@@ -83,6 +90,8 @@ fn record(maps: &PhotonMaps, counts: &[TraceCounts; 2], stats: &mut Stats) {
             rays: c.rays,
             power: (p.x + p.y + p.z) / 3.0,
             guards: map.guards,
+            asked: asked as u64,
+            cap_reached: c.stored < asked as u64 && c.emitted >= max_emissions(map.class, asked),
         });
     }
 }

@@ -122,6 +122,27 @@ pub struct MapStats {
     pub power: f64,
     /// Guarded footprints.
     pub guards: Guards,
+    /// Photons asked for.
+    pub asked: u64,
+    /// Whether emission stopped at its cap ([`crate::photons::trace::max_emissions`]) with
+    /// fewer photons stored than asked for.
+    pub cap_reached: bool,
+}
+
+impl MapStats {
+    /// What to tell the user when the map holds fewer photons than asked for, if it does.
+    pub fn shortfall(&self) -> Option<String> {
+        self.cap_reached.then(|| {
+            format!(
+                "{} map: {} of {} photons stored: emission stopped at its cap of {} emissions; \
+                 this scene rarely stores such photons",
+                format!("{:?}", self.class).to_lowercase(),
+                self.stored,
+                self.asked,
+                self.emitted,
+            )
+        })
+    }
 }
 
 impl Stats {
@@ -168,6 +189,8 @@ impl Stats {
                     m.rays += map.rays;
                     m.power += map.power;
                     m.guards.add(&map.guards);
+                    m.asked += map.asked;
+                    m.cap_reached |= map.cap_reached;
                 }
                 None => self.photon_maps.push(map),
             }
