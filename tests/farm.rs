@@ -308,13 +308,18 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
         e.ends_with("flipped.pdm: corrupt photon-map file: checksum mismatch"),
         "{e}"
     );
-    let version = d.join("v2.pdm");
+    // A version this build does not read: the next one.
+    let next = photondiff::photons::file::VERSION + 1;
+    let version = d.join("next.pdm");
     let mut v = bytes.clone();
-    v[8] = 2;
+    v[8..12].copy_from_slice(&next.to_le_bytes());
     std::fs::write(&version, &v).unwrap();
     let e = render(&scene_a, &version, &[]);
     assert!(
-        e.ends_with("v2.pdm: photon-map file format version 2; this photondiff reads version 1"),
+        e.ends_with(&format!(
+            "next.pdm: photon-map file format version {next}; this photondiff reads version {}",
+            next - 1
+        )),
         "{e}"
     );
     let e = render(&scene_a, &scene_a, &[]);
