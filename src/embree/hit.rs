@@ -56,6 +56,15 @@ impl Hit {
         let (du, dv) = self.barycentric_differential(dp);
         self.dn_du * du + self.dn_dv * dv
     }
+
+    /// [`Hit::normal_differential`] of both position differentials of a ray differential.
+    /// Flat triangles (no vertex normals) have none, without the arithmetic.
+    pub fn normal_differentials(&self, dp: [DVec3; 2]) -> [DVec3; 2] {
+        if self.dn_du == DVec3::ZERO && self.dn_dv == DVec3::ZERO {
+            return [DVec3::ZERO; 2];
+        }
+        dp.map(|dp| self.normal_differential(dp))
+    }
 }
 
 impl Scene {
@@ -81,61 +90,80 @@ impl Scene {
         v: f32,
         t: f32,
     ) -> Hit {
-        let geom_id = if inst_id != ffi::INVALID_GEOMETRY_ID {
-            inst_id
-        } else {
-            geom_id
-        };
-        let ([p0, p1, p2], normals) = self.geometries[geom_id as usize].world_triangle(prim_id);
-        let dp_du = p1 - p0;
-        let dp_dv = p2 - p0;
-        let cross = dp_du.cross(dp_dv);
-        let geometric_normal = cross.normalize();
-        let (mut u, mut v, mut t) = (u as f64, v as f64, t as f64);
-        let denom = ray.direction.dot(cross);
-        if denom.abs() > 1e-12 * ray.direction.length() * cross.length() {
-            let t64 = (p0 - ray.origin).dot(cross) / denom;
-            let w = ray.origin + ray.direction * t64 - p0;
-            let area = cross.length_squared();
-            let u64 = w.cross(dp_dv).dot(cross) / area;
-            let v64 = dp_du.cross(w).dot(cross) / area;
-            if t64.is_finite() && u64.is_finite() && v64.is_finite() {
-                // Stay on the triangle Embree found (rounding can step just outside it).
-                u = u64.clamp(0.0, 1.0);
-                v = v64.clamp(0.0, 1.0 - u);
-                t = t64;
-            }
+        let geom_id = top_level(geom_id, inst_id);
+        let triangle = self.geometries[geom_id as usize].world_triangle(prim_id);
+        complete_hit(ray, geom_id, prim_id, u, v, t, triangle)
+    }
+}
+
+/// The geometry a hit belongs to in this layer's numbering: the instance if there is one.
+pub(super) fn top_level(geom_id: u32, inst_id: u32) -> u32 {
+    if inst_id != ffi::INVALID_GEOMETRY_ID {
+        inst_id
+    } else {
+        geom_id
+    }
+}
+
+/// [`Scene::make_hit`] once the triangle's world-space vertices and normals are fetched (a
+/// packet fetches them for all its lanes first, so that their cache misses overlap).
+pub(super) fn complete_hit(
+    ray: &Ray,
+    geom_id: u32,
+    prim_id: u32,
+    u: f32,
+    v: f32,
+    t: f32,
+    ([p0, p1, p2], normals): ([DVec3; 3], Option<[DVec3; 3]>),
+) -> Hit {
+    let dp_du = p1 - p0;
+    let dp_dv = p2 - p0;
+    let cross = dp_du.cross(dp_dv);
+    let geometric_normal = cross.normalize();
+    let (mut u, mut v, mut t) = (u as f64, v as f64, t as f64);
+    let denom = ray.direction.dot(cross);
+    if denom.abs() > 1e-12 * ray.direction.length() * cross.length() {
+        let t64 = (p0 - ray.origin).dot(cross) / denom;
+        let w = ray.origin + ray.direction * t64 - p0;
+        let area = cross.length_squared();
+        let u64 = w.cross(dp_dv).dot(cross) / area;
+        let v64 = dp_du.cross(w).dot(cross) / area;
+        if t64.is_finite() && u64.is_finite() && v64.is_finite() {
+            // Stay on the triangle Embree found (rounding can step just outside it).
+            u = u64.clamp(0.0, 1.0);
+            v = v64.clamp(0.0, 1.0 - u);
+            t = t64;
         }
-        let (shading_normal, dn_du, dn_dv) = match normals {
-            None => (geometric_normal, DVec3::ZERO, DVec3::ZERO),
-            Some([n0, n1, n2]) => {
-                let unnormalised = n0 * (1.0 - u - v) + n1 * u + n2 * v;
-                let length = unnormalised.length();
-                let n = unnormalised / length;
-                // d(N/|N|) = (dN - (dN . n) n) / |N|
-                let project = |dn: DVec3| (dn - n * dn.dot(n)) / length;
-                let n = if n.dot(geometric_normal) < 0.0 { -n } else { n };
-                let sign = if unnormalised.dot(geometric_normal) < 0.0 {
-                    -1.0
-                } else {
-                    1.0
-                };
-                (n, sign * project(n1 - n0), sign * project(n2 - n0))
-            }
-        };
-        Hit {
-            t,
-            geom_id,
-            prim_id,
-            u,
-            v,
-            position: p0 + dp_du * u + dp_dv * v,
-            geometric_normal,
-            shading_normal,
-            dn_du,
-            dn_dv,
-            dp_du,
-            dp_dv,
+    }
+    let (shading_normal, dn_du, dn_dv) = match normals {
+        None => (geometric_normal, DVec3::ZERO, DVec3::ZERO),
+        Some([n0, n1, n2]) => {
+            let unnormalised = n0 * (1.0 - u - v) + n1 * u + n2 * v;
+            let length = unnormalised.length();
+            let n = unnormalised / length;
+            // d(N/|N|) = (dN - (dN . n) n) / |N|
+            let project = |dn: DVec3| (dn - n * dn.dot(n)) / length;
+            let n = if n.dot(geometric_normal) < 0.0 { -n } else { n };
+            let sign = if unnormalised.dot(geometric_normal) < 0.0 {
+                -1.0
+            } else {
+                1.0
+            };
+            (n, sign * project(n1 - n0), sign * project(n2 - n0))
         }
+    };
+    Hit {
+        t,
+        geom_id,
+        prim_id,
+        u,
+        v,
+        position: p0 + dp_du * u + dp_dv * v,
+        geometric_normal,
+        shading_normal,
+        dn_du,
+        dn_dv,
+        dp_du,
+        dp_dv,
     }
 }

@@ -3,10 +3,11 @@
 
 use super::api::{self, IntersectArgs, OccludedArgs};
 use super::ffi;
-use super::hit::Hit;
+use super::hit::{complete_hit, top_level, Hit};
 use super::ray::Ray;
 use super::scene::Scene;
 use super::PACKET_WIDTH;
+use glam::DVec3;
 
 /// A 64-byte aligned ray-hit packet: Embree segfaults on a misaligned one.
 #[repr(C, align(64))]
@@ -136,18 +137,32 @@ impl Scene {
         // SAFETY: packet and mask are 64-byte aligned; only lanes holding validated rays are active.
         unsafe { api::intersect16(&valid.0, self.raw, &mut packet.0, &mut args) };
         let (r, h) = (&packet.0.ray, &packet.0.hit);
-        for (lane, hit) in hits.iter_mut().enumerate().take(rays.len()) {
-            *hit = (valid.0[lane] != 0 && h.geomID[lane] != ffi::INVALID_GEOMETRY_ID).then(|| {
-                self.make_hit(
-                    &rays[lane],
-                    h.geomID[lane],
-                    h.instID[0][lane],
-                    h.primID[lane],
-                    h.u[lane],
-                    h.v[lane],
-                    r.tfar[lane],
-                )
-            });
+        // Completing a hit reads the triangle's indices, then its vertices and normals: on a
+        // large mesh each is a cache miss, and one lane at a time they would wait in turn.
+        // Each step is done for every lane before the next, so the lanes' misses overlap.
+        let hit_lanes = || {
+            (0..rays.len()).filter(|&l| valid.0[l] != 0 && h.geomID[l] != ffi::INVALID_GEOMETRY_ID)
+        };
+        let geometry = |l: usize| &self.geometries[top_level(h.geomID[l], h.instID[0][l]) as usize];
+        let mut triangles = [[0u32; 3]; PACKET_WIDTH];
+        for l in hit_lanes() {
+            triangles[l] = geometry(l).triangle(h.primID[l]);
+        }
+        let mut vertices = [([DVec3::ZERO; 3], None); PACKET_WIDTH];
+        for l in hit_lanes() {
+            vertices[l] = geometry(l).world_vertices(triangles[l]);
+        }
+        hits[..rays.len()].fill(None);
+        for l in hit_lanes() {
+            hits[l] = Some(complete_hit(
+                &rays[l],
+                top_level(h.geomID[l], h.instID[0][l]),
+                h.primID[l],
+                h.u[l],
+                h.v[l],
+                r.tfar[l],
+                vertices[l],
+            ));
         }
     }
 

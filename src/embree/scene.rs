@@ -32,7 +32,16 @@ impl Geometry {
     /// normalised: an affine map keeps barycentric interpolation, so interpolating these
     /// equals mapping the interpolated local normal).
     pub(super) fn world_triangle(&self, prim: u32) -> ([DVec3; 3], Option<[DVec3; 3]>) {
-        let tri = self.mesh.triangles[prim as usize];
+        self.world_vertices(self.mesh.triangles[prim as usize])
+    }
+
+    /// Triangle `prim`'s vertex indices.
+    pub(super) fn triangle(&self, prim: u32) -> [u32; 3] {
+        self.mesh.triangles[prim as usize]
+    }
+
+    /// [`Geometry::world_triangle`] of the triangle with vertex indices `tri`.
+    pub(super) fn world_vertices(&self, tri: [u32; 3]) -> ([DVec3; 3], Option<[DVec3; 3]>) {
         let vertex = |k: u32| DVec3::from(self.mesh.positions[k as usize].map(f64::from));
         let normal = |n: &Vec<[f32; 3]>, k: u32| DVec3::from(n[k as usize].map(f64::from));
         let p = tri.map(vertex);

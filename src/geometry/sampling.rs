@@ -33,9 +33,13 @@ pub fn sample_cone(w: DVec3, cos_max: f64, u: f64, v: f64) -> DVec3 {
     let r2 = x * x + y * y;
     let cos = 1.0 - r2 * (1.0 - cos_max);
     let sin = (1.0 - cos * cos).max(0.0).sqrt();
-    let phi = y.atan2(x);
     let (t1, t2) = tangent_frame(w);
-    (w * cos + t1 * (sin * phi.cos()) + t2 * (sin * phi.sin())).normalize()
+    if r2 == 0.0 {
+        return w;
+    }
+    // (x, y) / r is the unit vector at the disc point's angle: no need to compute the angle.
+    let s = sin / r2.sqrt();
+    (w * cos + t1 * (s * x) + t2 * (s * y)).normalize()
 }
 
 /// A cosine-distributed unit vector about `n`.

@@ -30,7 +30,7 @@ pub fn surface_frame(hit: &Hit, at: &RayDifferential) -> (SurfaceFrame, DVec3) {
     let frame = if ns.dot(d) < 0.0 {
         SurfaceFrame {
             n: ns,
-            dn: at.dp.map(|dp| hit.normal_differential(dp) * side),
+            dn: hit.normal_differentials(at.dp).map(|dn| dn * side),
         }
     } else {
         SurfaceFrame {

@@ -228,6 +228,7 @@ impl Emitter {
 
     /// The `index`-th emission (`rng` is that photon's own stream), or `None` when the sample
     /// carries no power (a quad light's back side).
+    #[inline]
     pub fn emit(&self, index: u64, rng: &mut Rng) -> Option<Emission> {
         self.emit_from_light(index, rng).map(|(e, _)| e)
     }
@@ -240,6 +241,7 @@ impl Emitter {
     }
 
     /// [`Emitter::emit`], with the light the emission left.
+    #[inline]
     pub fn emit_from_light(&self, index: u64, rng: &mut Rng) -> Option<(Emission, &Light)> {
         let light = self.pick_light(rng);
         Some((self.emit_picked(light.0, index, rng)?, light.1))
@@ -255,6 +257,7 @@ impl Emitter {
         (k, &self.sources[k].light)
     }
 
+    #[inline]
     fn emit_picked(&self, k: usize, index: u64, rng: &mut Rng) -> Option<Emission> {
         let source = &self.sources[k];
         let (u, v) = if self.random {
@@ -340,6 +343,7 @@ impl Emitter {
 }
 
 /// A photon leaving a point at `position` along `d` with angular differentials of radius `spread`.
+#[inline]
 fn point_emission(position: DVec3, d: DVec3, power: DVec3, spread: f64) -> Emission {
     let (t1, t2) = tangent_frame(d);
     let mut ray = RayDifferential::new(position, d);

@@ -224,6 +224,21 @@ impl FootprintBvh {
         bounds
     }
 
+    /// The items' indices in leaf order: `order()[k]` is the item in the `k`-th leaf slot.
+    pub fn order(&self) -> &[u32] {
+        &self.ids
+    }
+
+    /// Numbers the items by leaf slot: after the caller has put its items in [`order`],
+    /// queries answer slot numbers, and the items they find lie next to each other in memory.
+    ///
+    /// [`order`]: FootprintBvh::order
+    pub fn renumber(&mut self) {
+        for (k, id) in self.ids.iter_mut().enumerate() {
+            *id = k as u32;
+        }
+    }
+
     /// Number of items.
     pub fn len(&self) -> usize {
         self.ids.len()

@@ -49,6 +49,50 @@ pub struct LightPaths<'a> {
     pub epsilon: f64,
 }
 
+/// A light path between two queries: what [`LightPaths::advance`] needs to go on. Paths are
+/// resumable so that many can be traced side by side in 16-wide packets
+/// ([`LightPaths::walk_packets`]) with exactly the steps of [`LightPaths::walk`].
+#[derive(Debug, Clone)]
+pub struct PathState {
+    ray: RayDifferential,
+    power: DVec3,
+    specular: u32,
+    diffuse: u32,
+    path_length: f64,
+    /// Start of the next query: 0 for the segment leaving the light, the scene's epsilon after.
+    tnear: f64,
+    /// Surfaces met so far.
+    bounces: u32,
+}
+
+impl PathState {
+    /// The path of `emission`, before its first query.
+    pub fn new(emission: Emission) -> Self {
+        PathState {
+            ray: emission.ray,
+            power: emission.power,
+            specular: 0,
+            diffuse: 0,
+            path_length: 0.0,
+            tnear: 0.0,
+            bounces: 0,
+        }
+    }
+
+    /// Surfaces the path has met (queries answered).
+    pub fn bounces(&self) -> u32 {
+        self.bounces
+    }
+
+    /// The next ray to trace.
+    pub fn query(&self) -> Ray {
+        Ray {
+            tnear: self.tnear,
+            ..continuation(&self.ray, 0.0)
+        }
+    }
+}
+
 impl LightPaths<'_> {
     /// Follows `emission`, calling `visit` at every diffuse hit; the path goes on past it only
     /// when `visit` answers `true`. Returns the number of rays traced.
@@ -58,82 +102,167 @@ impl LightPaths<'_> {
         rng: &mut Rng,
         mut visit: impl FnMut(&DiffuseHit) -> bool,
     ) -> u64 {
-        let mut ray = emission.ray;
-        let mut power = emission.power;
-        let (mut specular, mut diffuse) = (0u32, 0u32);
-        let mut path_length = 0.0;
-        // The first segment leaves the light itself.
-        let mut tnear = 0.0;
+        let mut state = PathState::new(emission);
         let mut rays = 0;
-        for _ in 0..self.max_bounces {
+        while state.bounces < self.max_bounces {
             rays += 1;
-            let query = Ray {
-                tnear,
-                ..continuation(&ray, 0.0)
-            };
-            tnear = self.epsilon;
-            let Some(hit) = self.embree.intersect(&query) else {
+            let hit = self.embree.intersect(&state.query());
+            if !self.advance(&mut state, hit.as_ref(), rng, &mut visit) {
                 break;
-            };
-            let at = transfer_to(&ray, &hit);
-            path_length += (hit.position - ray.p).length();
-            let (frame, ng) = surface_frame(&hit, &at);
-            match *self.scene.material(hit.geom_id) {
-                Material::Emitter { .. } => break,
-                Material::Diffuse { albedo } => {
-                    let go_on = visit(&DiffuseHit {
-                        hit: &hit,
-                        ray: &at,
-                        normal: ng,
-                        albedo,
-                        power,
-                        path_length,
-                        specular_bounces: specular,
-                        diffuse_bounces: diffuse,
-                    });
-                    // Russian roulette on the largest albedo channel.
-                    let q = albedo.max_element();
-                    if !go_on || q <= 0.0 || rng.uniform() >= q {
-                        break;
-                    }
-                    power *= albedo / q;
-                    let n = if frame.n.dot(ng) > 0.0 { frame.n } else { ng };
-                    let d = sample_cosine(n, rng.uniform(), rng.uniform());
-                    let (t1, t2) = tangent_frame(d);
-                    ray = RayDifferential {
-                        p: at.p,
-                        d,
-                        dp: at.dp,
-                        dd: [t1 * self.diffuse_spread, t2 * self.diffuse_spread],
-                    };
-                    diffuse += 1;
-                }
-                Material::Mirror { reflectance } => {
-                    let q = reflectance.max_element();
-                    if q <= 0.0 || rng.uniform() >= q {
-                        break;
-                    }
-                    power *= reflectance / q;
-                    ray = at.reflect(&frame);
-                    specular += 1;
-                }
-                Material::Glass { ior } => {
-                    let entering = at.d.dot(hit.geometric_normal) < 0.0;
-                    let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
-                    let f = fresnel_dielectric(-at.d.dot(frame.n), n_from, n_to);
-                    // Reflect with probability F, refract otherwise: the power is unchanged.
-                    ray = if rng.uniform() < f {
-                        at.reflect(&frame)
-                    } else {
-                        match at.refract(&frame, n_from, n_to) {
-                            Refraction::Transmitted(t) => t,
-                            Refraction::TotalInternalReflection(r) => r,
-                        }
-                    };
-                    specular += 1;
-                }
             }
         }
         rays
+    }
+
+    /// Follows many paths at once, 16 to a packet: `next` hands out new paths (a tag of the
+    /// caller's, the emission and its random stream) as lanes fall free, `visit` is called at
+    /// every diffuse hit with the path's tag (as in [`LightPaths::walk`]), and `done` receives
+    /// each finished path's tag and its number of rays. Every path takes exactly the steps
+    /// `walk` would take with the same random stream: only the grouping of its queries into
+    /// Embree calls differs, which lets Embree trace 16 rays per call and lets the hits' mesh
+    /// data be fetched for 16 lanes at once (their cache misses overlap).
+    pub fn walk_packets<T>(
+        &self,
+        mut next: impl FnMut() -> Option<(T, Emission, Rng)>,
+        mut visit: impl FnMut(&T, &DiffuseHit) -> bool,
+        mut done: impl FnMut(T, u64),
+    ) {
+        const WIDTH: usize = embree::PACKET_WIDTH;
+        // The lanes' parts in separate arrays, written in place: paths start and end at
+        // every step, and moving whole lanes about would copy hundreds of bytes each time.
+        let mut tags: [Option<T>; WIDTH] = std::array::from_fn(|_| None);
+        let mut states: [PathState; WIDTH] = std::array::from_fn(|_| {
+            PathState::new(Emission {
+                ray: RayDifferential::new(DVec3::ZERO, DVec3::X),
+                power: DVec3::ZERO,
+            })
+        });
+        let mut rngs: [Rng; WIDTH] = std::array::from_fn(|_| Rng::new(0, 0));
+        let mut rays = [0u64; WIDTH];
+        let mut exhausted = false;
+        let mut queries = [Ray::new(DVec3::ZERO, DVec3::X); WIDTH];
+        let mut active = [0usize; WIDTH];
+        let mut hits: [Option<Hit>; WIDTH] = [None; WIDTH];
+        loop {
+            let mut n = 0;
+            for k in 0..WIDTH {
+                if tags[k].is_none() && !exhausted {
+                    match next() {
+                        Some((tag, emission, rng)) => {
+                            tags[k] = Some(tag);
+                            states[k] = PathState::new(emission);
+                            rngs[k] = rng;
+                            rays[k] = 0;
+                        }
+                        None => exhausted = true,
+                    }
+                }
+                if tags[k].is_some() {
+                    if states[k].bounces < self.max_bounces {
+                        queries[n] = states[k].query();
+                        active[n] = k;
+                        n += 1;
+                    } else {
+                        done(tags[k].take().expect("checked"), rays[k]);
+                    }
+                }
+            }
+            if n == 0 {
+                if exhausted {
+                    return;
+                }
+                continue;
+            }
+            self.embree
+                .intersect16(&queries[..n], false, &mut hits[..n]);
+            for (j, &k) in active[..n].iter().enumerate() {
+                rays[k] += 1;
+                let tag = tags[k].as_ref().expect("active lane");
+                let go_on = self.advance(&mut states[k], hits[j].as_ref(), &mut rngs[k], |v| {
+                    visit(tag, v)
+                });
+                if !go_on {
+                    done(tags[k].take().expect("active lane"), rays[k]);
+                }
+            }
+        }
+    }
+
+    /// Moves `state` on by the answer `hit` to its query; `visit` as in [`LightPaths::walk`].
+    /// Returns whether the path goes on.
+    pub fn advance(
+        &self,
+        state: &mut PathState,
+        hit: Option<&Hit>,
+        rng: &mut Rng,
+        mut visit: impl FnMut(&DiffuseHit) -> bool,
+    ) -> bool {
+        state.bounces += 1;
+        state.tnear = self.epsilon;
+        let Some(hit) = hit else {
+            return false;
+        };
+        let ray = &state.ray;
+        let at = transfer_to(ray, hit);
+        state.path_length += (hit.position - ray.p).length();
+        let (frame, ng) = surface_frame(hit, &at);
+        match *self.scene.material(hit.geom_id) {
+            Material::Emitter { .. } => false,
+            Material::Diffuse { albedo } => {
+                let go_on = visit(&DiffuseHit {
+                    hit,
+                    ray: &at,
+                    normal: ng,
+                    albedo,
+                    power: state.power,
+                    path_length: state.path_length,
+                    specular_bounces: state.specular,
+                    diffuse_bounces: state.diffuse,
+                });
+                // Russian roulette on the largest albedo channel.
+                let q = albedo.max_element();
+                if !go_on || q <= 0.0 || rng.uniform() >= q {
+                    return false;
+                }
+                state.power *= albedo / q;
+                let n = if frame.n.dot(ng) > 0.0 { frame.n } else { ng };
+                let d = sample_cosine(n, rng.uniform(), rng.uniform());
+                let (t1, t2) = tangent_frame(d);
+                state.ray = RayDifferential {
+                    p: at.p,
+                    d,
+                    dp: at.dp,
+                    dd: [t1 * self.diffuse_spread, t2 * self.diffuse_spread],
+                };
+                state.diffuse += 1;
+                true
+            }
+            Material::Mirror { reflectance } => {
+                let q = reflectance.max_element();
+                if q <= 0.0 || rng.uniform() >= q {
+                    return false;
+                }
+                state.power *= reflectance / q;
+                state.ray = at.reflect(&frame);
+                state.specular += 1;
+                true
+            }
+            Material::Glass { ior } => {
+                let entering = at.d.dot(hit.geometric_normal) < 0.0;
+                let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
+                let f = fresnel_dielectric(-at.d.dot(frame.n), n_from, n_to);
+                // Reflect with probability F, refract otherwise: the power is unchanged.
+                state.ray = if rng.uniform() < f {
+                    at.reflect(&frame)
+                } else {
+                    match at.refract(&frame, n_from, n_to) {
+                        Refraction::Transmitted(t) => t,
+                        Refraction::TotalInternalReflection(r) => r,
+                    }
+                };
+                state.specular += 1;
+                true
+            }
+        }
     }
 }

@@ -65,7 +65,10 @@ pub enum PathClass {
 pub struct PhotonMap {
     /// The class of paths stored.
     pub class: PathClass,
-    /// The photons, in emission order.
+    /// The photons, in the order of the footprint BVH's leaves (footprint boxes along a
+    /// Morton curve): a query reads photons that lie together in memory. (In emission order
+    /// they would be scattered: at 10^5 photons and more each photon tested was a cache miss,
+    /// and testing them took a third of the render.)
     pub photons: Vec<Photon>,
     /// Number of emissions the photons' powers are divided by.
     pub emitted: u64,
@@ -85,6 +88,9 @@ impl PhotonMap {
     pub fn new(class: PathClass, photons: Vec<Photon>, emitted: u64, guards: Guards) -> Self {
         let max_radius = photons.iter().map(|p| p.radius).fold(0.0, f32::max);
         let boxes: Vec<Aabb> = photons.iter().map(footprint_box).collect();
+        let mut bvh = FootprintBvh::new(&boxes);
+        let photons = bvh.order().iter().map(|&i| photons[i as usize]).collect();
+        bvh.renumber();
         PhotonMap {
             class,
             photons,
@@ -92,7 +98,7 @@ impl PhotonMap {
             guards,
             max_radius,
             tree: OnceLock::new(),
-            bvh: FootprintBvh::new(&boxes),
+            bvh,
         }
     }
 

@@ -7,11 +7,11 @@
 //! index), and emissions are collected in index order, so the maps are identical whatever the
 //! number of threads.
 
-use crate::embree;
+use crate::embree::{self, Ray};
 use crate::geometry::differential::RayDifferential;
 use crate::photons::emission::{Emission, Emitter};
 use crate::photons::footprint::{footprint, FootprintLimits, Guards};
-use crate::photons::light_path::LightPaths;
+use crate::photons::light_path::{DiffuseHit, LightPaths, PathState};
 use crate::photons::map::{PathClass, Photon, PhotonMap};
 use crate::scene::Scene;
 use crate::util::rng::Rng;
@@ -179,44 +179,57 @@ impl<'a> PhotonTracer<'a> {
         rng: &mut Rng,
         out: &mut Vec<TracedPhoton>,
     ) -> u64 {
-        self.paths.walk(emission, rng, |v| {
-            let here = match (v.specular_bounces, v.diffuse_bounces) {
-                (_, d) if d > 0 => PathClass::Global,
-                (s, _) if s > 0 => PathClass::Caustic,
-                _ => PathClass::Direct,
-            };
-            if here == class {
-                out.push(TracedPhoton {
-                    class,
-                    ray: *v.ray,
-                    normal: v.normal,
-                    power: v.power,
-                    path_length: v.path_length,
-                    specular_bounces: v.specular_bounces,
-                    diffuse_bounces: v.diffuse_bounces,
-                });
-            }
-            class == PathClass::Global
-        })
+        self.paths
+            .walk(emission, rng, |v| store(class, v, |p| out.push(p)))
     }
 
-    /// Traces emissions from `emitter` in index order until `stop` is met, divides the stored
-    /// photons' powers by the number of emissions and builds the map of `class`. `progress` is
-    /// advanced by the photons stored or the emissions, as `stop` counts.
-    pub fn build_map(
+    /// Traces emissions `range` of `emitter` in 16-wide packets: the photons of class `class`
+    /// in emission order, each with its emission's index, and the rays of every emission.
+    /// The same photons as [`PhotonTracer::trace`] on each emission in turn.
+    fn trace_range(
+        &self,
+        emitter: &Emitter,
+        class: PathClass,
+        salt: u64,
+        range: std::ops::Range<u64>,
+    ) -> RangePhotons {
+        let mut photons = Vec::new();
+        let mut rays = vec![0u32; (range.end - range.start) as usize];
+        let mut indices = range.clone();
+        self.paths.walk_packets(
+            || {
+                for index in indices.by_ref() {
+                    let mut rng = Rng::new(self.options.seed ^ (salt << 56), index);
+                    if let Some(e) = emitter.emit(index, &mut rng) {
+                        return Some((index, e, rng));
+                    }
+                }
+                None
+            },
+            |&index, v| store(class, v, |p| photons.push((index, p))),
+            |index, n| rays[(index - range.start) as usize] = n as u32,
+        );
+        // A lane's photons come in path order; lanes finish out of order.
+        photons.sort_by_key(|&(index, _)| index);
+        (photons, rays)
+    }
+
+    /// Traces emissions from `emitter` in index order until `stop` is met: the photons of
+    /// `class` (powers for a single emission) and the counts. `progress` is advanced by the
+    /// photons stored or the emissions, as `stop` counts.
+    pub fn trace_photons(
         &self,
         emitter: &Emitter,
         class: PathClass,
         stop: StopRule,
         progress: &indicatif::ProgressBar,
-    ) -> (PhotonMap, TraceCounts) {
+    ) -> (Vec<TracedPhoton>, TraceCounts) {
+        // Emissions are traced in batches (each split into fixed chunks, one per task, so the
+        // packets and hence the results do not depend on the number of threads) and taken in
+        // index order until the map is complete.
         const BATCH: u64 = 4096;
-        let limits = self.options.limits(self.scene);
-        let salt = match class {
-            PathClass::Direct => 0xD1,
-            PathClass::Caustic => 0xCA,
-            PathClass::Global => 0x61,
-        };
+        const CHUNK: u64 = 256;
+        let salt = salt(class);
         let (target, max_emissions) = match stop {
             // A cap for scenes where the class is rare (it is reported in the statistics).
             StopRule::Stored(n) => (n, max_emissions(class, n)),
@@ -228,32 +241,101 @@ impl<'a> PhotonTracer<'a> {
             'batches: while counts.emitted < max_emissions {
                 let start = counts.emitted;
                 let end = (start + BATCH).min(max_emissions);
-                let batch: Vec<(Vec<TracedPhoton>, u64)> = (start..end)
+                let chunks: Vec<u64> = (start..end).step_by(CHUNK as usize).collect();
+                let batch: Vec<RangePhotons> = chunks
                     .into_par_iter()
-                    .map(|index| {
-                        let mut rng = Rng::new(self.options.seed ^ (salt << 56), index);
-                        let mut out = Vec::new();
-                        let rays = match emitter.emit(index, &mut rng) {
-                            Some(e) => self.trace(e, class, &mut rng, &mut out),
-                            None => 0,
-                        };
-                        (out, rays)
-                    })
+                    .map(|a| self.trace_range(emitter, class, salt, a..(a + CHUNK).min(end)))
                     .collect();
-                for (photons, rays) in batch {
-                    counts.emitted += 1;
-                    counts.rays += rays;
+                let mut index = start;
+                let before_batch = (counts.emitted, traced.len());
+                // The progress bar moves once per batch: it reads the clock on every move.
+                let advance = |counts: &TraceCounts, traced: &Vec<TracedPhoton>| {
                     progress.inc(match stop {
-                        StopRule::Stored(_) => photons.len() as u64,
-                        StopRule::Emitted(_) => 1,
-                    });
-                    traced.extend(photons);
-                    if traced.len() >= target {
-                        break 'batches;
+                        StopRule::Stored(_) => (traced.len() - before_batch.1) as u64,
+                        StopRule::Emitted(_) => counts.emitted - before_batch.0,
+                    })
+                };
+                for (photons, rays) in batch {
+                    let mut photons = photons.into_iter().peekable();
+                    for n in rays {
+                        counts.emitted += 1;
+                        counts.rays += u64::from(n);
+                        while let Some((_, p)) = photons.next_if(|&(i, _)| i == index) {
+                            traced.push(p);
+                        }
+                        index += 1;
+                        if traced.len() >= target {
+                            advance(&counts, &traced);
+                            break 'batches;
+                        }
                     }
+                }
+                advance(&counts, &traced);
+            }
+        }
+        counts.stored = traced.len() as u64;
+        (traced, counts)
+    }
+
+    /// Traces emission `index` of `emitter` alone, with the random stream [`trace_photons`]
+    /// gives it, ray by ray: the photons of `class` it stores go to `out`; returns its rays.
+    /// `trace_photons` traces the same paths in packets (tested).
+    ///
+    /// [`trace_photons`]: PhotonTracer::trace_photons
+    pub fn trace_emission(
+        &self,
+        emitter: &Emitter,
+        class: PathClass,
+        index: u64,
+        out: &mut Vec<TracedPhoton>,
+    ) -> u64 {
+        let mut rng = Rng::new(self.options.seed ^ (salt(class) << 56), index);
+        match emitter.emit(index, &mut rng) {
+            Some(e) => self.trace(e, class, &mut rng, out),
+            None => 0,
+        }
+    }
+
+    /// The rays that tracing the first `emissions` emissions of `emitter` for `class` queries,
+    /// in emission order, one path after another: for benchmarks, to time Embree alone on
+    /// the very rays photon tracing traces. (Traced one at a time here; packets may answer a
+    /// ray whose hit is a tie differently, which changes nothing measurable.)
+    pub fn queries(&self, emitter: &Emitter, class: PathClass, emissions: u64) -> Vec<Ray> {
+        let salt = salt(class);
+        let mut rays = Vec::new();
+        for index in 0..emissions {
+            let mut rng = Rng::new(self.options.seed ^ (salt << 56), index);
+            let Some(e) = emitter.emit(index, &mut rng) else {
+                continue;
+            };
+            let mut state = PathState::new(e);
+            while state.bounces() < self.options.max_bounces {
+                let query = state.query();
+                rays.push(query);
+                let hit = self.embree.intersect(&query);
+                let visit = |v: &DiffuseHit| store(class, v, |_| ());
+                if !self
+                    .paths
+                    .advance(&mut state, hit.as_ref(), &mut rng, visit)
+                {
+                    break;
                 }
             }
         }
+        rays
+    }
+
+    /// [`PhotonTracer::trace_photons`], then the photons' powers divided by the number of
+    /// emissions and their footprints, in the map of `class`.
+    pub fn build_map(
+        &self,
+        emitter: &Emitter,
+        class: PathClass,
+        stop: StopRule,
+        progress: &indicatif::ProgressBar,
+    ) -> (PhotonMap, TraceCounts) {
+        let (traced, counts) = self.trace_photons(emitter, class, stop, progress);
+        let limits = self.options.limits(self.scene);
         let scale = 1.0 / counts.emitted.max(1) as f64;
         let mut guards = Guards::default();
         let photons: Vec<Photon> = traced
@@ -274,10 +356,44 @@ impl<'a> PhotonTracer<'a> {
                 Photon::new(t.ray.p, t.normal, t.ray.d, t.power * scale, &f)
             })
             .collect();
-        counts.stored = photons.len() as u64;
         (
             PhotonMap::new(class, photons, counts.emitted, guards),
             counts,
         )
+    }
+}
+
+/// Hands the photon of `class` at diffuse hit `v` (if it is one) to `keep`; answers whether
+/// the path goes on (only global paths go past a diffuse hit).
+fn store(class: PathClass, v: &DiffuseHit, keep: impl FnOnce(TracedPhoton)) -> bool {
+    let here = match (v.specular_bounces, v.diffuse_bounces) {
+        (_, d) if d > 0 => PathClass::Global,
+        (s, _) if s > 0 => PathClass::Caustic,
+        _ => PathClass::Direct,
+    };
+    if here == class {
+        keep(TracedPhoton {
+            class,
+            ray: *v.ray,
+            normal: v.normal,
+            power: v.power,
+            path_length: v.path_length,
+            specular_bounces: v.specular_bounces,
+            diffuse_bounces: v.diffuse_bounces,
+        });
+    }
+    class == PathClass::Global
+}
+
+/// What [`PhotonTracer::trace_range`] returns: the photons with their emissions' indices, in
+/// index order, and every emission's rays.
+type RangePhotons = (Vec<(u64, TracedPhoton)>, Vec<u32>);
+
+/// Mixed into the seed of every emission's random stream: each map class has its own.
+fn salt(class: PathClass) -> u64 {
+    match class {
+        PathClass::Direct => 0xD1,
+        PathClass::Caustic => 0xCA,
+        PathClass::Global => 0x61,
     }
 }
