@@ -143,20 +143,21 @@ impl Scene {
         let hit_lanes = || {
             (0..rays.len()).filter(|&l| valid.0[l] != 0 && h.geomID[l] != ffi::INVALID_GEOMETRY_ID)
         };
-        let geometry = |l: usize| &self.geometries[top_level(h.geomID[l], h.instID[0][l]) as usize];
+        let mut ids = [0u32; PACKET_WIDTH];
         let mut triangles = [[0u32; 3]; PACKET_WIDTH];
         for l in hit_lanes() {
-            triangles[l] = geometry(l).triangle(h.primID[l]);
+            ids[l] = top_level(h.geomID[l], h.instID[0][l]);
+            triangles[l] = self.geometries[ids[l] as usize].triangle(h.primID[l]);
         }
         let mut vertices = [([DVec3::ZERO; 3], None); PACKET_WIDTH];
         for l in hit_lanes() {
-            vertices[l] = geometry(l).world_vertices(triangles[l]);
+            vertices[l] = self.geometries[ids[l] as usize].world_vertices(triangles[l]);
         }
         hits[..rays.len()].fill(None);
         for l in hit_lanes() {
             hits[l] = Some(complete_hit(
                 &rays[l],
-                top_level(h.geomID[l], h.instID[0][l]),
+                ids[l],
                 h.primID[l],
                 h.u[l],
                 h.v[l],

@@ -79,17 +79,9 @@ impl PathState {
         }
     }
 
-    /// Surfaces the path has met (queries answered).
-    pub fn bounces(&self) -> u32 {
-        self.bounces
-    }
-
     /// The next ray to trace.
     pub fn query(&self) -> Ray {
-        Ray {
-            tnear: self.tnear,
-            ..continuation(&self.ray, 0.0)
-        }
+        continuation(&self.ray, self.tnear)
     }
 }
 
@@ -100,13 +92,25 @@ impl LightPaths<'_> {
         &self,
         emission: Emission,
         rng: &mut Rng,
+        visit: impl FnMut(&DiffuseHit) -> bool,
+    ) -> u64 {
+        self.walk_with(emission, rng, |q| self.embree.intersect(q), visit)
+    }
+
+    /// [`LightPaths::walk`] with its queries answered by `intersect` (which may, say, record
+    /// them before asking Embree).
+    pub fn walk_with(
+        &self,
+        emission: Emission,
+        rng: &mut Rng,
+        mut intersect: impl FnMut(&Ray) -> Option<Hit>,
         mut visit: impl FnMut(&DiffuseHit) -> bool,
     ) -> u64 {
         let mut state = PathState::new(emission);
         let mut rays = 0;
         while state.bounces < self.max_bounces {
             rays += 1;
-            let hit = self.embree.intersect(&state.query());
+            let hit = intersect(&state.query());
             if !self.advance(&mut state, hit.as_ref(), rng, &mut visit) {
                 break;
             }

@@ -11,7 +11,7 @@ use crate::embree::{self, Ray};
 use crate::geometry::differential::RayDifferential;
 use crate::photons::emission::{Emission, Emitter};
 use crate::photons::footprint::{footprint, FootprintLimits, Guards};
-use crate::photons::light_path::{DiffuseHit, LightPaths, PathState};
+use crate::photons::light_path::{DiffuseHit, LightPaths};
 use crate::photons::map::{PathClass, Photon, PhotonMap};
 use crate::scene::Scene;
 use crate::util::rng::Rng;
@@ -190,7 +190,6 @@ impl<'a> PhotonTracer<'a> {
         &self,
         emitter: &Emitter,
         class: PathClass,
-        salt: u64,
         range: std::ops::Range<u64>,
     ) -> RangePhotons {
         let mut photons = Vec::new();
@@ -199,7 +198,7 @@ impl<'a> PhotonTracer<'a> {
         self.paths.walk_packets(
             || {
                 for index in indices.by_ref() {
-                    let mut rng = Rng::new(self.options.seed ^ (salt << 56), index);
+                    let mut rng = self.stream(class, index);
                     if let Some(e) = emitter.emit(index, &mut rng) {
                         return Some((index, e, rng));
                     }
@@ -229,7 +228,6 @@ impl<'a> PhotonTracer<'a> {
         // index order until the map is complete.
         const BATCH: u64 = 4096;
         const CHUNK: u64 = 256;
-        let salt = salt(class);
         let (target, max_emissions) = match stop {
             // A cap for scenes where the class is rare (it is reported in the statistics).
             StopRule::Stored(n) => (n, max_emissions(class, n)),
@@ -238,39 +236,41 @@ impl<'a> PhotonTracer<'a> {
         let mut traced: Vec<TracedPhoton> = Vec::new();
         let mut counts = TraceCounts::default();
         if target > 0 && !emitter.is_empty() {
-            'batches: while counts.emitted < max_emissions {
+            while counts.emitted < max_emissions {
                 let start = counts.emitted;
                 let end = (start + BATCH).min(max_emissions);
                 let chunks: Vec<u64> = (start..end).step_by(CHUNK as usize).collect();
                 let batch: Vec<RangePhotons> = chunks
                     .into_par_iter()
-                    .map(|a| self.trace_range(emitter, class, salt, a..(a + CHUNK).min(end)))
+                    .map(|a| self.trace_range(emitter, class, a..(a + CHUNK).min(end)))
                     .collect();
                 let mut index = start;
-                let before_batch = (counts.emitted, traced.len());
-                // The progress bar moves once per batch: it reads the clock on every move.
-                let advance = |counts: &TraceCounts, traced: &Vec<TracedPhoton>| {
-                    progress.inc(match stop {
-                        StopRule::Stored(_) => (traced.len() - before_batch.1) as u64,
-                        StopRule::Emitted(_) => counts.emitted - before_batch.0,
-                    })
-                };
-                for (photons, rays) in batch {
-                    let mut photons = photons.into_iter().peekable();
-                    for n in rays {
-                        counts.emitted += 1;
-                        counts.rays += u64::from(n);
-                        while let Some((_, p)) = photons.next_if(|&(i, _)| i == index) {
-                            traced.push(p);
-                        }
-                        index += 1;
-                        if traced.len() >= target {
-                            advance(&counts, &traced);
-                            break 'batches;
+                let stored_before = traced.len();
+                let complete = 'batch: {
+                    for (photons, rays) in batch {
+                        let mut photons = photons.into_iter().peekable();
+                        for n in rays {
+                            counts.emitted += 1;
+                            counts.rays += u64::from(n);
+                            while let Some((_, p)) = photons.next_if(|&(i, _)| i == index) {
+                                traced.push(p);
+                            }
+                            index += 1;
+                            if traced.len() >= target {
+                                break 'batch true;
+                            }
                         }
                     }
+                    false
+                };
+                // The progress bar moves once per batch: it reads the clock on every move.
+                progress.inc(match stop {
+                    StopRule::Stored(_) => (traced.len() - stored_before) as u64,
+                    StopRule::Emitted(_) => counts.emitted - start,
+                });
+                if complete {
+                    break;
                 }
-                advance(&counts, &traced);
             }
         }
         counts.stored = traced.len() as u64;
@@ -289,11 +289,16 @@ impl<'a> PhotonTracer<'a> {
         index: u64,
         out: &mut Vec<TracedPhoton>,
     ) -> u64 {
-        let mut rng = Rng::new(self.options.seed ^ (salt(class) << 56), index);
+        let mut rng = self.stream(class, index);
         match emitter.emit(index, &mut rng) {
             Some(e) => self.trace(e, class, &mut rng, out),
             None => 0,
         }
+    }
+
+    /// The random stream of emission `index` of the map of `class`.
+    fn stream(&self, class: PathClass, index: u64) -> Rng {
+        Rng::new(self.options.seed ^ (salt(class) << 56), index)
     }
 
     /// The rays that tracing the first `emissions` emissions of `emitter` for `class` queries,
@@ -301,25 +306,16 @@ impl<'a> PhotonTracer<'a> {
     /// the very rays photon tracing traces. (Traced one at a time here; packets may answer a
     /// ray whose hit is a tie differently, which changes nothing measurable.)
     pub fn queries(&self, emitter: &Emitter, class: PathClass, emissions: u64) -> Vec<Ray> {
-        let salt = salt(class);
         let mut rays = Vec::new();
         for index in 0..emissions {
-            let mut rng = Rng::new(self.options.seed ^ (salt << 56), index);
-            let Some(e) = emitter.emit(index, &mut rng) else {
-                continue;
-            };
-            let mut state = PathState::new(e);
-            while state.bounces() < self.options.max_bounces {
-                let query = state.query();
-                rays.push(query);
-                let hit = self.embree.intersect(&query);
-                let visit = |v: &DiffuseHit| store(class, v, |_| ());
-                if !self
-                    .paths
-                    .advance(&mut state, hit.as_ref(), &mut rng, visit)
-                {
-                    break;
-                }
+            let mut rng = self.stream(class, index);
+            if let Some(e) = emitter.emit(index, &mut rng) {
+                let intersect = |q: &Ray| {
+                    rays.push(*q);
+                    self.embree.intersect(q)
+                };
+                self.paths
+                    .walk_with(e, &mut rng, intersect, |v| store(class, v, |_| ()));
             }
         }
         rays
