@@ -19,7 +19,7 @@ pub use multisampled::MultiSampledEstimate;
 pub use pd::PhotonDifferentialEstimate;
 pub use select::{EstimatorKind, EstimatorSettings};
 
-use crate::photons::footprint_bvh::OFF_PLANE_TOLERANCE;
+use crate::photons::cover::OFF_PLANE_TOLERANCE;
 use crate::photons::map::Photon;
 use glam::{DVec3, Vec3};
 use serde::Serialize;

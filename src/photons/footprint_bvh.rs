@@ -13,13 +13,10 @@
 //! at the highest differing bit) builds in one sort plus a linear pass in safe Rust, and keeping
 //! it out of `src/embree` keeps the FFI surface (the only unsafe code) as it is.
 
+use crate::photons::cover::OFF_PLANE_TOLERANCE;
 use crate::photons::map::Photon;
 use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
-
-/// How far off its tangent plane a query point may lie and still see a photon, as a fraction of
-/// the photon's radius (`estimate::on_query_surface`).
-pub const OFF_PLANE_TOLERANCE: f32 = 0.1;
 
 /// The box of every offset `v` from photon `p` at which its kernel may be non-zero: its ellipse
 /// `|M v| < 1` thickened by [`OFF_PLANE_TOLERANCE`] along its normal (a slanted elliptic
@@ -54,40 +51,8 @@ pub fn footprint_box(p: &Photon) -> Aabb {
     }
 }
 
-/// Whether photon `p`'s kernel, seen from a query point at offset `v = x - x_p` on its surface
-/// slab, may be non-zero somewhere in the view footprint `x + alpha f0 + beta f1`,
-/// `|alpha|, |beta| <= 1/2`, given as `f = [M f0, M f1]` in the photon's filter space: the
-/// parallelogram `s + alpha a + beta b` (`s = M v`) and the unit disc are not separated along
-/// `s`'s direction (the bounding circle), nor along either edge's normal (separating axes).
-/// Exact in `M` (no assumption on its rows); a small slack covers rounding.
-#[inline]
-pub fn may_cover(p: &Photon, v: Vec3, f: [Vec3; 2]) -> bool {
-    const SLACK: f32 = 1e-4;
-    if p.normal.dot(v).abs() > OFF_PLANE_TOLERANCE * p.radius {
-        return false;
-    }
-    let s = glam::Vec2::new(p.m[0].dot(v), p.m[1].dot(v));
-    let a = glam::Vec2::new(p.m[0].dot(f[0]), p.m[1].dot(f[0]));
-    let b = glam::Vec2::new(p.m[0].dot(f[1]), p.m[1].dot(f[1]));
-    let reach = 0.5 * (a + b).length().max((a - b).length());
-    if s.length() > 1.0 + reach + SLACK {
-        return false;
-    }
-    // Along the normal of edge a (the perp of a): the parallelogram spans |s.n| +- |b.n| / 2.
-    for (e, o) in [(a, b), (b, a)] {
-        let len = e.length();
-        if len > 1e-20 {
-            let n = e.perp() / len;
-            if n.dot(s).abs() > 1.0 + 0.5 * n.dot(o).abs() + SLACK {
-                return false;
-            }
-        }
-    }
-    true
-}
-
-/// Photons per leaf at most.
-const LEAF_SIZE: usize = 4;
+/// Photons per leaf at most (the lanes of [`crate::photons::cover::CoverTable::leaf`]).
+pub const LEAF_SIZE: usize = 4;
 
 /// An axis-aligned box.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -252,6 +217,22 @@ impl FootprintBvh {
     /// Appends to `out` (not cleared) the indices of every item whose box overlaps `query`, in
     /// leaf order.
     pub fn overlapping(&self, query: &Aabb, out: &mut Vec<u32>) {
+        self.leaves_overlapping(query, |first, count| {
+            let range = first..first + count;
+            for (b, &id) in self.boxes[range.clone()].iter().zip(&self.ids[range]) {
+                if b.overlaps(query) {
+                    out.push(id);
+                }
+            }
+        });
+    }
+
+    /// Calls `visit(first, count)` with the slots of every leaf whose bounds overlap `query`,
+    /// in leaf order (`count <= LEAF_SIZE`; after [`renumber`], slots are the items' indices).
+    ///
+    /// [`renumber`]: FootprintBvh::renumber
+    #[inline]
+    pub fn leaves_overlapping(&self, query: &Aabb, mut visit: impl FnMut(usize, usize)) {
         if self.nodes.is_empty() {
             return;
         }
@@ -266,12 +247,7 @@ impl FootprintBvh {
                 continue;
             }
             if node.count > 0 {
-                let range = node.index as usize..(node.index + node.count) as usize;
-                for (b, &id) in self.boxes[range.clone()].iter().zip(&self.ids[range]) {
-                    if b.overlaps(query) {
-                        out.push(id);
-                    }
-                }
+                visit(node.index as usize, node.count as usize);
             } else {
                 // Right pushed first: the left subtree is visited first.
                 stack[top] = node.index;
@@ -389,48 +365,6 @@ mod tests {
             for i in 0..3 {
                 prop_assert!(reached[i] >= 0.999 * half[i] - 1e-5, "{reached} vs {half}");
             }
-        }
-    }
-
-    proptest! {
-        /// Every sample point of the view footprint inside the kernel's support (the estimators'
-        /// own test) is covered by `may_cover`.
-        #[test]
-        fn may_cover_holds_every_covered_footprint(
-            a in prop::array::uniform3(-1f64..1.0),
-            b in prop::array::uniform3(-1f64..1.0),
-            n in prop::array::uniform3(-1f64..1.0),
-            v in prop::array::uniform3(-2f32..2.0),
-            f0 in prop::array::uniform3(-2f32..2.0),
-            f1 in prop::array::uniform3(-2f32..2.0),
-            scale in 0.01f64..1.0,
-            fscale in prop::sample::select(vec![0.0f32, 0.01, 0.1, 1.0]),
-        ) {
-            let n = DVec3::from(n);
-            prop_assume!(n.length() > 0.1);
-            let n = n.normalize();
-            let limits = FootprintLimits { min_radius: 1e-3, max_radius: 10.0, max_anisotropy: 20.0 };
-            let fp = footprint(
-                DVec3::from(a) * scale, DVec3::from(b) * scale, n, &limits, 0.1,
-                &mut Guards::default());
-            let p = Photon::new(DVec3::ZERO, n, -n, DVec3::ONE, &fp);
-            // Offsets near the photon's plane, so that the slab test passes often.
-            let v = Vec3::from(v) * scale as f32;
-            let v = v - p.normal * p.normal.dot(v) * 0.95;
-            let f = [Vec3::from(f0) * fscale * scale as f32, Vec3::from(f1) * fscale * scale as f32];
-            let covers = may_cover(&p, v, f);
-            let on_slab = p.normal.dot(v).abs() <= OFF_PLANE_TOLERANCE * p.radius;
-            let mut inside = 0;
-            for i in 0..=16 {
-                for j in 0..=16 {
-                    let y = v + f[0] * (i as f32 / 16.0 - 0.5) + f[1] * (j as f32 / 16.0 - 0.5);
-                    let r2 = p.m[0].dot(y).powi(2) + p.m[1].dot(y).powi(2);
-                    if on_slab && r2 < 1.0 {
-                        inside += 1;
-                    }
-                }
-            }
-            prop_assert!(covers || inside == 0, "{inside} points inside, not covered");
         }
     }
 

@@ -2,8 +2,9 @@
 //! queries ([`crate::photons::footprint_bvh`]) and a kd-tree (kiddo, built on first use) for
 //! k-nearest queries.
 
+use crate::photons::cover::{CoverQuery, CoverTable};
 use crate::photons::footprint::{Footprint, Guards};
-use crate::photons::footprint_bvh::{footprint_box, may_cover, Aabb, FootprintBvh};
+use crate::photons::footprint_bvh::{footprint_box, Aabb, FootprintBvh};
 use glam::{DVec3, Vec3};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
@@ -81,6 +82,8 @@ pub struct PhotonMap {
     tree: OnceLock<ImmutableKdTree<f32, u32, 3, 32>>,
     /// Over every photon's footprint box, for footprint range queries.
     bvh: FootprintBvh,
+    /// What the exact cover test reads of each photon, in the same order.
+    cover: CoverTable,
 }
 
 impl PhotonMap {
@@ -89,8 +92,9 @@ impl PhotonMap {
         let max_radius = photons.iter().map(|p| p.radius).fold(0.0, f32::max);
         let boxes: Vec<Aabb> = photons.iter().map(footprint_box).collect();
         let mut bvh = FootprintBvh::new(&boxes);
-        let photons = bvh.order().iter().map(|&i| photons[i as usize]).collect();
+        let photons: Vec<Photon> = bvh.order().iter().map(|&i| photons[i as usize]).collect();
         bvh.renumber();
+        let cover = CoverTable::new(&photons);
         PhotonMap {
             class,
             photons,
@@ -99,6 +103,7 @@ impl PhotonMap {
             max_radius,
             tree: OnceLock::new(),
             bvh,
+            cover,
         }
     }
 
@@ -122,36 +127,27 @@ impl PhotonMap {
     /// tolerance off its plane) overlaps the cube `x +- reach`. The estimators test each exactly.
     pub fn reaching(&self, x: DVec3, reach: f64, out: &mut Vec<u32>) {
         out.clear();
-        let reach = if reach.is_finite() {
-            reach.max(0.0)
-        } else {
-            0.0
-        };
-        // Rounded outwards: the box must hold the f64 cube.
-        let r = Vec3::splat((reach * (1.0 + 1e-6)) as f32);
-        let c = x.as_vec3();
-        let slack = Vec3::splat(c.abs().max_element() * 4.0 * f32::EPSILON);
-        let query = Aabb {
-            min: c - r - slack,
-            max: c + r + slack,
-        };
-        self.bvh.overlapping(&query, out);
+        self.bvh.overlapping(&reach_box(x, reach), out);
     }
 
-    /// Indices (any order) of a superset of the photons whose kernel may be non-zero somewhere in
-    /// the view footprint `x +- f[0]/2 +- f[1]/2` (zero for a point) for a query point `x` on
-    /// their surface: the footprint boxes overlapping the footprint's bounding cube, each then
-    /// tested in its own filter space ([`may_cover`]). Non-finite footprints count as points.
+    /// Indices (in map order) of a superset of the photons whose kernel may be non-zero
+    /// somewhere in the view footprint `x +- f[0]/2 +- f[1]/2` (zero for a point) for a query
+    /// point `x` on their surface: in every BVH leaf whose bounds overlap the footprint's
+    /// bounding cube, the photons that [`crate::photons::cover::may_cover`] it (tested four at
+    /// a time). Non-finite footprints count as points.
     pub fn covering(&self, x: DVec3, footprint: &[DVec3; 2], out: &mut Vec<u32>) {
+        out.clear();
         let finite = footprint[0].is_finite() && footprint[1].is_finite();
         let f = if finite { *footprint } else { [DVec3::ZERO; 2] };
-        let reach = 0.5 * (f[0] + f[1]).length().max((f[0] - f[1]).length());
-        self.reaching(x, reach, out);
-        let c = x.as_vec3();
-        let f = [f[0].as_vec3(), f[1].as_vec3()];
-        out.retain(|&i| {
-            let p = &self.photons[i as usize];
-            may_cover(p, c - p.position, f)
+        let q = CoverQuery::new(x.as_vec3(), [f[0].as_vec3(), f[1].as_vec3()]);
+        // The footprint's own box, not the cube of its reach: seen at a grazing angle a pixel's
+        // footprint is long and thin, and its cube let through photons beside it. (A photon it
+        // covers lies in the footprint's plane, so their boxes share that point.)
+        let half = 0.5 * (f[0].abs() + f[1].abs());
+        let query = rounded_out(x - half, x + half);
+        // The photons are in leaf order, so a leaf's slots are its photons' indices.
+        self.bvh.leaves_overlapping(&query, |first, count| {
+            self.cover.leaf(first, count, &q, out)
         });
     }
 
@@ -174,5 +170,27 @@ impl PhotonMap {
                 .into_iter()
                 .map(|n| (n.distance, n.item)),
         );
+    }
+}
+
+/// The cube `x +- reach` (a non-finite or negative reach counts as zero), as [`rounded_out`].
+fn reach_box(x: DVec3, reach: f64) -> Aabb {
+    let reach = if reach.is_finite() {
+        reach.max(0.0)
+    } else {
+        0.0
+    };
+    rounded_out(x - reach, x + reach)
+}
+
+/// The f32 box that holds the f64 box `lo..hi`.
+fn rounded_out(lo: DVec3, hi: DVec3) -> Aabb {
+    let slack = |v: DVec3| {
+        let v = v.as_vec3();
+        v.abs() * (2.0 * f32::EPSILON) + Vec3::splat(f32::MIN_POSITIVE)
+    };
+    Aabb {
+        min: lo.as_vec3() - slack(lo),
+        max: hi.as_vec3() + slack(hi),
     }
 }

@@ -1,8 +1,9 @@
 //! Photon tracing: emission from the lights with emission differentials ([`emission`]), light
 //! paths through the scene ([`light_path`]), the photons they store ([`trace`]), each with its
 //! footprint ([`footprint`]), gathered into photon maps ([`map`]) with a BVH over footprint boxes
-//! ([`footprint_bvh`]).
+//! ([`footprint_bvh`]) and an exact test of what a footprint may cover ([`cover`]).
 
+pub mod cover;
 pub mod emission;
 pub mod file;
 pub mod footprint;
