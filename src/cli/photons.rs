@@ -22,8 +22,10 @@ pub struct PhotonsArgs {
     /// Photons stored in the global map (as `render --photons`).
     #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
     global_photons: usize,
-    /// Photons stored in the caustic map (as `render --caustic-photons`).
-    #[arg(long, value_name = "N", default_value_t = 20_000)]
+    /// Photons stored in the caustic map (as `render --caustic-photons`; the default is the
+    /// default render's, 80,000: maps for `--estimator pd` and the thesis's other estimators
+    /// at their default take `--caustic-photons 20000`).
+    #[arg(long, value_name = "N", default_value_t = photondiff::render::passes::DEFAULT_CAUSTIC_PHOTONS)]
     caustic_photons: usize,
     /// Photon footprint size (as `render --overlap`).
     #[arg(long, value_name = "X", default_value_t = 32.0)]

@@ -6,7 +6,9 @@ use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::pass_part::write_pass_part;
-use photondiff::render::passes::{PassReport, DEFAULT_ALPHA, DEFAULT_PASSES};
+use photondiff::render::passes::{
+    PassReport, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_PASSES,
+};
 use photondiff::render::stats::Stats;
 use photondiff::render::{
     load_photon_maps, Progressive, RenderOptions, StopRules, TileSplit, Window,
@@ -59,9 +61,10 @@ pub struct RenderArgs {
     /// photon asked for, with a warning if fewer were stored.
     #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
     global_photons: usize,
-    /// Photons stored in the caustic map.
-    #[arg(long, value_name = "N", default_value_t = 20_000)]
-    caustic_photons: usize,
+    /// Photons stored in the caustic map (of each pass). Default 80,000 for `integrated` (the
+    /// default estimator) and 20,000 (the thesis's count) for the others.
+    #[arg(long, value_name = "N")]
+    caustic_photons: Option<usize>,
     /// Nearest photons per regular (jensen) estimate.
     #[arg(long, value_name = "N", default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     k: u32,
@@ -199,7 +202,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         .with_window(window);
     let photon_options = PhotonOptions {
         global_photons: args.global_photons,
-        caustic_photons: args.caustic_photons,
+        caustic_photons: caustic_photons(args, kind),
         overlap: args.overlap,
         seed: args.seed,
         ..PhotonOptions::default()
@@ -311,7 +314,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ),
         (
             "photondiff/caustic_photons".to_string(),
-            args.caustic_photons.to_string(),
+            caustic_photons(args, kind).to_string(),
         ),
         ("photondiff/k".to_string(), args.k.to_string()),
         ("photondiff/ms_grid".to_string(), args.ms_grid.to_string()),
@@ -468,4 +471,13 @@ pub(crate) fn warn_shortfalls(scene: &Path, stats: &photondiff::render::stats::S
             }
         }
     }
+}
+
+/// `--caustic-photons`, or its default for `kind`: more for `integrated`, whose passes make
+/// the default render ([`DEFAULT_CAUSTIC_PHOTONS`]); the thesis's 20,000 for the others.
+fn caustic_photons(args: &RenderArgs, kind: EstimatorKind) -> usize {
+    args.caustic_photons.unwrap_or(match kind {
+        EstimatorKind::Integrated => DEFAULT_CAUSTIC_PHOTONS,
+        _ => PhotonOptions::default().caustic_photons,
+    })
 }

@@ -9,7 +9,7 @@ use crate::photons::PhotonMaps;
 use crate::render::film::Film;
 use crate::render::image::render_image;
 use crate::render::pass_sum::PassSum;
-use crate::render::passes::{Progressive, DEFAULT_ALPHA, DEFAULT_PASSES};
+use crate::render::passes::{Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_PASSES};
 use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
 use crate::scene::Scene;
@@ -25,6 +25,9 @@ pub struct Method {
     pub ms_grid: u32,
     /// Progressive passes (1: a single render from the shared photon maps).
     pub passes: u64,
+    /// Caustic photons per pass when they differ from the shared maps': every pass then
+    /// traces its own maps, pass 0 too, and their tracing counts as rendering time.
+    pub caustic_photons: Option<usize>,
 }
 
 impl Method {
@@ -35,6 +38,7 @@ impl Method {
             view_grid: n,
             ms_grid: 1,
             passes: 1,
+            caustic_photons: None,
         }
     }
     /// Jensen's estimate with `n x n` camera rays per pixel.
@@ -44,6 +48,7 @@ impl Method {
             view_grid: n,
             ms_grid: 1,
             passes: 1,
+            caustic_photons: None,
         }
     }
     /// Coplanar intersection-weighted photon differentials, one camera ray per pixel.
@@ -53,6 +58,7 @@ impl Method {
             view_grid: 1,
             ms_grid: 1,
             passes: 1,
+            caustic_photons: None,
         }
     }
     /// Multi-sampled photon differentials with `n x n` sample points, one camera ray per pixel.
@@ -62,6 +68,7 @@ impl Method {
             view_grid: 1,
             ms_grid: n,
             passes: 1,
+            caustic_photons: None,
         }
     }
 
@@ -72,6 +79,7 @@ impl Method {
             view_grid: 1,
             ms_grid: 1,
             passes: 1,
+            caustic_photons: None,
         }
     }
 
@@ -80,6 +88,7 @@ impl Method {
     pub fn integrated_default() -> Self {
         Method {
             passes: DEFAULT_PASSES,
+            caustic_photons: Some(DEFAULT_CAUSTIC_PHOTONS),
             ..Self::integrated()
         }
     }
@@ -95,6 +104,10 @@ impl Method {
             EstimatorKind::Integrated => "Footprint-integrated".to_string(),
             EstimatorKind::Direct => "Direct light only".to_string(),
             EstimatorKind::Lighttrace => "Light tracing".to_string(),
+        };
+        let name = match self.caustic_photons {
+            Some(n) => format!("{name}, {n} caustic photons a pass"),
+            None => name,
         };
         match self.passes {
             1 => name,
@@ -127,24 +140,34 @@ impl Method {
             .with_view_grid(self.view_grid)
             .with_threads(threads);
         let mut stats = Stats::default();
-        if self.passes <= 1 {
+        let own_photons = self
+            .caustic_photons
+            .filter(|&n| n != photon_options.caustic_photons);
+        if self.passes <= 1 && own_photons.is_none() {
             let film = render(scene, embree, &refs, &options, &mut stats)?;
             return Ok((film, stats.seconds("render")));
         }
         let run = Progressive {
             scene,
             embree,
-            photons: photon_options.clone(),
+            photons: PhotonOptions {
+                caustic_photons: own_photons.unwrap_or(photon_options.caustic_photons),
+                ..photon_options.clone()
+            },
             estimator: settings,
             render: options,
             alpha: DEFAULT_ALPHA,
         };
-        // Pass 0's settings with the shared maps (its estimate equals the single render's).
-        let (_, settings, options) = run.pass_settings(0);
-        let estimators = maps.estimators(&settings);
-        let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
         let mut sum = PassSum::new(scene.camera.width, scene.camera.height);
-        sum.add(&render_image(scene, embree, &refs, &options, &mut stats)?);
+        if own_photons.is_some() {
+            sum.add(&run.render_pass(0, false, &mut stats)?);
+        } else {
+            // Pass 0's settings with the shared maps (its estimate equals the single render's).
+            let (_, settings, options) = run.pass_settings(0);
+            let estimators = maps.estimators(&settings);
+            let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
+            sum.add(&render_image(scene, embree, &refs, &options, &mut stats)?);
+        }
         for pass in 1..self.passes {
             sum.add(&run.render_pass(pass, false, &mut stats)?);
         }

@@ -1,0 +1,151 @@
+//! The default render against Regular 1x1, as a user runs them: whole `photondiff render`
+//! processes (scene loading, BVH, photon tracing, rendering, writing the images), alternated
+//! in one run, median of several repetitions; then the default image's errors over the floor,
+//! the caustic, its contour and the sphere's shadow against the split reference (cached in
+//! `out/reference/`, made on first use as the convergence bench makes it). Prints the table
+//! and whether the targets of the default are met (floor <= 4%, caustic <= 4%, contour <= 3%,
+//! whole process <= 3x Regular 1x1's).
+//!
+//! Run: `cargo bench --bench default_render`. Environment: `PHOTONDIFF_REPEATS` (default 5),
+//! `PHOTONDIFF_REFERENCE_PATHS` (paths per set of the reference, default 2*10^8).
+
+use photondiff::embree::Device;
+use photondiff::reference::cache::{load_or_make, ReferenceSettings};
+use photondiff::reference::metrics::{rel_rmse, Regions};
+use photondiff::render::film::Film;
+use photondiff::scene::file::load_scene;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn median(mut t: Vec<f64>) -> f64 {
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+/// Runs `photondiff render SCENE -q -o OUT ARGS...`; returns its wall time in seconds.
+fn render(scene: &Path, out: &Path, args: &[&str]) -> Result<f64, String> {
+    let start = Instant::now();
+    let output = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("render")
+        .arg(scene)
+        .args(["-q", "-o"])
+        .arg(out)
+        .args(args)
+        .output()
+        .map_err(|e| format!("cannot run photondiff: {e}"))?;
+    let seconds = start.elapsed().as_secs_f64();
+    // Its warnings (the open scene's global map falls short) would repeat every run: shown
+    // only when it fails.
+    if !output.status.success() {
+        return Err(format!(
+            "photondiff render {args:?} failed: {}\n{}",
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    Ok(seconds)
+}
+
+fn main() -> Result<(), String> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let scene_path = root.join("scenes/caustic-sphere.toml");
+    let out = root.join("out");
+    let dir = out.join("default_render");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let repeats: usize = env_or("PHOTONDIFF_REPEATS", 5).max(1);
+    let paths: u64 = env_or("PHOTONDIFF_REFERENCE_PATHS", 200_000_000);
+
+    let scene = load_scene(&scene_path).map_err(|e| e.to_string())?;
+    let device = Device::new().map_err(|e| e.to_string())?;
+    let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
+    let settings = ReferenceSettings {
+        light_paths: paths,
+        caustic_paths: paths,
+        direct_grids: [16, 17],
+    };
+    let reference = load_or_make(
+        &scene,
+        &embree,
+        &out.join("reference"),
+        "caustic-sphere",
+        &settings,
+        &mut |m| eprintln!("{m}"),
+    )?;
+    let regions = Regions::new(&scene, &embree, &reference.film);
+
+    let methods: [(&str, &[&str]); 2] = [
+        ("Regular 1x1 (`--estimator pd`)", &["--estimator", "pd"]),
+        ("default (no options)", &[]),
+    ];
+    let files: Vec<PathBuf> = (0..methods.len())
+        .map(|k| dir.join(format!("method{k}.exr")))
+        .collect();
+    // One untimed run of each first: cold caches and page faults hit no timed run.
+    for (k, (_, args)) in methods.iter().enumerate() {
+        render(&scene_path, &files[k], args)?;
+    }
+    let mut times = vec![Vec::new(); methods.len()];
+    for rep in 0..repeats {
+        for (k, (name, args)) in methods.iter().enumerate() {
+            let t = render(&scene_path, &files[k], args)?;
+            eprintln!("repetition {}/{repeats}: {name} {t:.3} s", rep + 1);
+            times[k].push(t);
+        }
+    }
+    let base = median(times[0].clone());
+    let sets = [
+        ("floor", &regions.diffuse),
+        ("caustic", &regions.caustic),
+        ("contour", &regions.contour),
+        ("shadow", &regions.shadow),
+    ];
+    println!(
+        "\n## The default render against Regular 1x1: canonical scene, whole process, median of {repeats}\n"
+    );
+    println!(
+        "Error: relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) against the \
+         split reference ({paths} + {paths} light paths, direct light on 16x16 and 17x17 rays); \
+         its own noise (from its halves): {}.\n",
+        sets.iter()
+            .map(|(name, px)| format!("{name} {:.2}%", 100.0 * reference.relative_noise(px)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    println!("| render | seconds | x Regular 1x1 | floor | caustic | contour | shadow |");
+    println!("|---|---|---|---|---|---|---|");
+    let mut default_errors = [0.0; 4];
+    for (k, (name, _)) in methods.iter().enumerate() {
+        let film = Film::read_exr(&files[k])?;
+        let e = sets.map(|(_, px)| rel_rmse(&film, &reference.film, px));
+        let t = median(times[k].clone());
+        println!(
+            "| {name} | {t:.3} | {:.2} | {:.2}% | {:.2}% | {:.2}% | {:.2}% |",
+            t / base,
+            100.0 * e[0],
+            100.0 * e[1],
+            100.0 * e[2],
+            100.0 * e[3]
+        );
+        default_errors = e;
+    }
+    let ratio = median(times[1].clone()) / base;
+    let checks = [
+        ("floor <= 4%", default_errors[0] <= 0.04),
+        ("caustic <= 4%", default_errors[1] <= 0.04),
+        ("contour <= 3%", default_errors[2] <= 0.03),
+        ("whole process <= 3x Regular 1x1", ratio <= 3.0),
+    ];
+    println!();
+    for (target, met) in checks {
+        println!("- {target}: {}", if met { "met" } else { "MISSED" });
+    }
+    Ok(())
+}
