@@ -97,6 +97,7 @@ fn progressive(
         max_radius: photons.limits(scene).max_radius,
         ms_grid: 8,
         ellipse_vertices: 16,
+        gather_rays: 0,
     };
     let run = Progressive {
         scene,

@@ -140,6 +140,7 @@ fn load_and_render(text: &str) -> bool {
             max_radius: options.limits(&scene).max_radius,
             ms_grid: 2,
             ellipse_vertices: 8,
+            gather_rays: 0,
         };
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();

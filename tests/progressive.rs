@@ -30,6 +30,7 @@ fn settings(kind: EstimatorKind, scene: &Scene, photons: &PhotonOptions) -> Esti
         max_radius: photons.limits(scene).max_radius,
         ms_grid: 4,
         ellipse_vertices: 16,
+        gather_rays: 0,
     }
 }
 

@@ -240,6 +240,7 @@ fn no_estimator_produces_nan_infinite_or_negative_radiance() {
             max_radius: options.limits(&scene).max_radius,
             ms_grid: 8,
             ellipse_vertices: 16,
+            gather_rays: 0,
         };
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();

@@ -65,6 +65,12 @@ pub struct RenderArgs {
     /// default estimator) and 20,000 (the thesis's count) for the others.
     #[arg(long, value_name = "N")]
     caustic_photons: Option<usize>,
+    /// Final gathering: indirect diffuse light at the first diffuse hit of each camera path
+    /// from N stratified cosine-distributed gather rays, which pass through mirrors and glass
+    /// and read radiance precomputed from photons at every diffuse hit (--photons of them);
+    /// 0 views the global map directly. At most 4096.
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=4096))]
+    gather_rays: u32,
     /// Nearest photons per regular (jensen) estimate.
     #[arg(long, value_name = "N", default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     k: u32,
@@ -205,8 +211,27 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         caustic_photons: caustic_photons(args, kind),
         overlap: args.overlap,
         seed: args.seed,
+        radiance_map: args.gather_rays > 0,
         ..PhotonOptions::default()
     };
+    if args.gather_rays > 0 {
+        if matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace) {
+            return Err(format!(
+                "--gather-rays needs photon maps: --estimator {} has none",
+                if kind == EstimatorKind::Direct {
+                    "direct"
+                } else {
+                    "lighttrace"
+                }
+            ));
+        }
+        if args.photon_maps.is_some() {
+            return Err(
+                "--gather-rays cannot read --photon-maps: final gathering traces its own radiance map"
+                    .into(),
+            );
+        }
+    }
     if !(args.overlap.is_finite() && args.overlap > 0.0) {
         return Err(format!(
             "--overlap must be a positive number, got {}",
@@ -219,6 +244,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         max_radius: photon_options.limits(&scene).max_radius,
         ms_grid: args.ms_grid,
         ellipse_vertices: args.coplanar_vertices as usize,
+        gather_rays: args.gather_rays,
     };
     let film = if kind == EstimatorKind::Lighttrace {
         let lt_options = LightTraceOptions {
@@ -317,6 +343,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             caustic_photons(args, kind).to_string(),
         ),
         ("photondiff/k".to_string(), args.k.to_string()),
+        (
+            "photondiff/gather_rays".to_string(),
+            args.gather_rays.to_string(),
+        ),
         ("photondiff/ms_grid".to_string(), args.ms_grid.to_string()),
         (
             "photondiff/coplanar_vertices".to_string(),

@@ -3,9 +3,11 @@
 //!
 //! Each estimator is one file: [`jensen`] (k nearest photons), [`pd`] (photon differentials),
 //! [`coplanar`], [`multisampled`] and [`integrated`] (photon differentials with the view
-//! footprint). [`select`] turns the command line's choice into estimators over the photon maps.
+//! footprint); [`final_gather`] reads indirect light through gather rays instead of the global
+//! map. [`select`] turns the command line's choice into estimators over the photon maps.
 
 pub mod coplanar;
+pub mod final_gather;
 pub mod integrated;
 pub mod jensen;
 pub mod multisampled;
@@ -13,6 +15,7 @@ pub mod pd;
 pub mod select;
 
 pub use coplanar::CoplanarEstimate;
+pub use final_gather::FinalGather;
 pub use integrated::IntegratedEstimate;
 pub use jensen::JensenEstimate;
 pub use multisampled::MultiSampledEstimate;
@@ -46,6 +49,11 @@ pub struct GatherCounts {
     pub photons_found: u64,
     /// Photons that contributed (inside their kernel's support, on the right side).
     pub photons_used: u64,
+    /// Final-gather estimates computed (not counted in `gathers`, which are photon-map
+    /// queries).
+    pub final_gathers: u64,
+    /// Rays traced by final gathering (each segment through mirrors and glass counts).
+    pub gather_rays: u64,
 }
 
 impl GatherCounts {
@@ -54,6 +62,8 @@ impl GatherCounts {
         self.gathers += other.gathers;
         self.photons_found += other.photons_found;
         self.photons_used += other.photons_used;
+        self.final_gathers += other.final_gathers;
+        self.gather_rays += other.gather_rays;
     }
 }
 

@@ -2,10 +2,12 @@
 //! the photon maps.
 
 use super::{
-    CoplanarEstimate, IntegratedEstimate, JensenEstimate, MultiSampledEstimate,
+    CoplanarEstimate, FinalGather, IntegratedEstimate, JensenEstimate, MultiSampledEstimate,
     PhotonDifferentialEstimate, RadianceEstimator,
 };
+use crate::embree;
 use crate::photons::PhotonMaps;
+use crate::scene::Scene;
 
 /// Which radiance estimate renders the photon maps.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
@@ -42,11 +44,55 @@ pub struct EstimatorSettings {
     pub ms_grid: u32,
     /// Vertices of the polygon standing for a photon footprint in the `coplanar` estimate.
     pub ellipse_vertices: usize,
+    /// Final-gather rays per diffuse hit (0: the global map is seen directly). With final
+    /// gathering the photon maps must hold a radiance map.
+    pub gather_rays: u32,
+}
+
+/// What final gathering traces its rays through, besides the maps.
+#[derive(Clone, Copy)]
+pub struct GatherScene<'a> {
+    /// The scene.
+    pub scene: &'a Scene,
+    /// Its Embree scene.
+    pub embree: &'a embree::Scene,
+    /// Most mirror and glass bounces of a gather ray (the camera paths' limit).
+    pub max_depth: u32,
+    /// Seed of the gather directions (the render's).
+    pub seed: u64,
 }
 
 // An inherent impl outside `photons`: choosing estimators is this module's concern, and the
 // photon maps know nothing of estimators.
 impl PhotonMaps {
+    /// The estimators of a render: [`PhotonMaps::estimators`], or with final gathering
+    /// (`settings.gather_rays > 0`) the caustic map's estimator and [`FinalGather`] over the
+    /// radiance map, whose absence is then an error.
+    pub fn estimators_for<'a>(
+        &'a self,
+        settings: &EstimatorSettings,
+        at: GatherScene<'a>,
+    ) -> Result<Vec<Box<dyn RadianceEstimator + 'a>>, String> {
+        let mut estimators = self.estimators(settings);
+        if settings.gather_rays == 0 || estimators.is_empty() {
+            return Ok(estimators);
+        }
+        let map = self.radiance.as_ref().ok_or(
+            "final gathering needs the radiance map, which only traced photon maps hold              (not photon-map files)",
+        )?;
+        estimators.truncate(1);
+        estimators.push(Box::new(FinalGather {
+            scene: at.scene,
+            embree: at.embree,
+            map,
+            rays: settings.gather_rays,
+            max_depth: at.max_depth,
+            seed: at.seed,
+            epsilon: at.scene.ray_epsilon(),
+        }));
+        Ok(estimators)
+    }
+
     /// The estimators over both maps (none for [`EstimatorKind::Direct`]).
     pub fn estimators(&self, settings: &EstimatorSettings) -> Vec<Box<dyn RadianceEstimator + '_>> {
         [&self.caustic, &self.global]

@@ -270,7 +270,14 @@ pub fn decode(
     if at != payload.len() {
         return Err("corrupt photon-map file: bytes after the maps".into());
     }
-    Ok((PhotonMaps { caustic, global }, [c, g]))
+    Ok((
+        PhotonMaps {
+            caustic,
+            global,
+            radiance: None,
+        },
+        [c, g],
+    ))
 }
 
 #[cfg(test)]
@@ -306,6 +313,7 @@ mod tests {
         let maps = PhotonMaps {
             caustic: map(PathClass::Caustic, 37),
             global: map(PathClass::Global, 0),
+            radiance: None,
         };
         let counts = [
             TraceCounts {

@@ -60,6 +60,21 @@ pub enum PathClass {
     Caustic,
     /// After at least one diffuse bounce (L (S|D)* D D).
     Global,
+    /// Every diffuse hit of a light path, the first too (L (S|D)* D): all the light leaving
+    /// diffuse surfaces, which final gathering reads ([`crate::photons::radiance_map`]).
+    AllDiffuse,
+}
+
+impl PathClass {
+    /// Its name in messages and statistics.
+    pub fn name(self) -> &'static str {
+        match self {
+            PathClass::Direct => "direct",
+            PathClass::Caustic => "caustic",
+            PathClass::Global => "global",
+            PathClass::AllDiffuse => "global (all diffuse hits, for final gathering)",
+        }
+    }
 }
 
 /// A photon map: photons of one [`PathClass`] and the trees over their positions.

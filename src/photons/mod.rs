@@ -1,7 +1,8 @@
 //! Photon tracing: emission from the lights with emission differentials ([`emission`]), light
 //! paths through the scene ([`light_path`]), the photons they store ([`trace`]), each with its
-//! footprint ([`footprint`]), gathered into photon maps ([`map`]) with a BVH over footprint boxes
-//! ([`footprint_bvh`]) and an exact test of what a footprint may cover ([`cover`]).
+//! footprint ([`footprint`]), gathered into photon maps ([`map`]) with a BVH over footprint
+//! boxes ([`footprint_bvh`]) and an exact test of what a footprint may cover ([`cover`]); for
+//! final gathering, radiance precomputed at photons of every diffuse hit ([`radiance_map`]).
 
 pub mod cover;
 pub mod emission;
@@ -10,14 +11,20 @@ pub mod footprint;
 pub mod footprint_bvh;
 pub mod light_path;
 pub mod map;
+pub mod radiance_map;
 pub mod trace;
 
 use map::PhotonMap;
+use radiance_map::RadianceMap;
 
 /// The caustic and global photon maps of a scene.
 pub struct PhotonMaps {
     /// Light -> specular+ -> diffuse.
     pub caustic: PhotonMap,
-    /// After at least one diffuse bounce.
+    /// After at least one diffuse bounce (empty when final gathering reads `radiance`
+    /// instead).
     pub global: PhotonMap,
+    /// For final gathering: radiance leaving diffuse surfaces, from photons at every diffuse
+    /// hit ([`radiance_map`]); `None` without final gathering.
+    pub radiance: Option<RadianceMap>,
 }

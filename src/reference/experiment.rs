@@ -133,6 +133,7 @@ impl Method {
             max_radius: photon_options.limits(scene).max_radius,
             ms_grid: self.ms_grid,
             ellipse_vertices: 16,
+            gather_rays: 0,
         };
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();

@@ -28,6 +28,7 @@
 //! - area-light samples use the pass's seed.
 
 use crate::embree;
+use crate::estimate::select::GatherScene;
 use crate::estimate::{EstimatorKind, EstimatorSettings, RadianceEstimator};
 use crate::geometry::sampling::r2;
 use crate::photons::trace::PhotonOptions;
@@ -195,10 +196,16 @@ impl Progressive<'_> {
                 )?,
             }),
         };
-        let estimators = maps
-            .as_ref()
-            .map(|m| m.estimators(&settings))
-            .unwrap_or_default();
+        let at = GatherScene {
+            scene: self.scene,
+            embree: self.embree,
+            max_depth: render.max_depth,
+            seed: render.seed,
+        };
+        let estimators = match &maps {
+            Some(m) => m.estimators_for(&settings, at)?,
+            None => Vec::new(),
+        };
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
         render_image(self.scene, self.embree, &refs, &render, stats)
     }

@@ -1,10 +1,11 @@
-//! The photon pass of a render: traces the caustic and global maps, timed and counted in the
-//! statistics.
+//! The photon pass of a render: traces the caustic and global maps (or the radiance map of
+//! final gathering in the global map's place), timed and counted in the statistics.
 
 use super::stats::{MapStats, Stats};
 use crate::embree;
 use crate::photons::emission::Emitter;
-use crate::photons::map::PathClass;
+use crate::photons::footprint::Guards;
+use crate::photons::map::{PathClass, PhotonMap};
 use crate::photons::trace::{max_emissions, PhotonOptions, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
@@ -42,13 +43,30 @@ pub fn trace_photon_maps(
             );
             let global_emitter =
                 Emitter::global(scene, options.global_photons, options.overlap, options.seed);
-            let (global, g) = tracer.build_map(
-                &global_emitter,
-                PathClass::Global,
-                StopRule::Stored(options.global_photons),
-                &bar,
-            );
-            (PhotonMaps { caustic, global }, [c, g])
+            if options.radiance_map {
+                let (radiance, g) =
+                    tracer.build_radiance_map(&global_emitter, options.global_photons, &bar);
+                let global = PhotonMap::new(PathClass::Global, Vec::new(), 0, Guards::default());
+                let maps = PhotonMaps {
+                    caustic,
+                    global,
+                    radiance: Some(radiance),
+                };
+                (maps, [c, g])
+            } else {
+                let (global, g) = tracer.build_map(
+                    &global_emitter,
+                    PathClass::Global,
+                    StopRule::Stored(options.global_photons),
+                    &bar,
+                );
+                let maps = PhotonMaps {
+                    caustic,
+                    global,
+                    radiance: None,
+                };
+                (maps, [c, g])
+            }
         })
     });
     bar.finish_and_clear();
@@ -72,7 +90,8 @@ pub fn load_photon_maps(
     Ok(maps)
 }
 
-/// Records the maps' statistics.
+/// Records the maps' statistics (the radiance map's in the global map's place when there is
+/// one).
 fn record(
     maps: &PhotonMaps,
     counts: &[TraceCounts; 2],
@@ -80,18 +99,33 @@ fn record(
     stats: &mut Stats,
 ) {
     let asked = [options.caustic_photons, options.global_photons];
-    let maps = [&maps.caustic, &maps.global];
-    for ((map, c), asked) in maps.into_iter().zip(counts).zip(asked) {
-        let p = map.total_power();
+    let mean = |p: glam::DVec3| (p.x + p.y + p.z) / 3.0;
+    let second = match &maps.radiance {
+        Some(r) => (PathClass::AllDiffuse, mean(r.power), Guards::default()),
+        None => (
+            PathClass::Global,
+            mean(maps.global.total_power()),
+            maps.global.guards,
+        ),
+    };
+    let entries = [
+        (
+            PathClass::Caustic,
+            mean(maps.caustic.total_power()),
+            maps.caustic.guards,
+        ),
+        second,
+    ];
+    for (((class, power, guards), c), asked) in entries.into_iter().zip(counts).zip(asked) {
         stats.photon_maps.push(MapStats {
-            class: map.class,
+            class,
             emitted: c.emitted,
             stored: c.stored,
             rays: c.rays,
-            power: (p.x + p.y + p.z) / 3.0,
-            guards: map.guards,
+            power,
+            guards,
             asked: asked as u64,
-            cap_reached: c.stored < asked as u64 && c.emitted >= max_emissions(map.class, asked),
+            cap_reached: c.stored < asked as u64 && c.emitted >= max_emissions(class, asked),
         });
     }
 }

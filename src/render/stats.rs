@@ -136,7 +136,7 @@ impl MapStats {
             format!(
                 "{} map: {} of {} photons stored: emission stopped at its cap of {} emissions; \
                  this scene rarely stores such photons",
-                format!("{:?}", self.class).to_lowercase(),
+                self.class.name(),
                 self.stored,
                 self.asked,
                 self.emitted,
@@ -248,9 +248,9 @@ impl Stats {
         }
         for m in &self.photon_maps {
             out += &format!(
-                "  {:?} map: {} photons stored from {} emissions ({} rays), power {:.4} W; \
+                "  {} map: {} photons stored from {} emissions ({} rays), power {:.4} W; \
                  guarded footprints: {} clamped small, {} clamped large, {} anisotropy, {} fallback\n",
-                m.class,
+                capitalised(m.class.name()),
                 m.stored,
                 m.emitted,
                 m.rays,
@@ -268,6 +268,14 @@ impl Stats {
                 g.gathers,
                 g.photons_found as f64 / g.gathers as f64,
                 g.photons_used as f64 / g.gathers as f64
+            );
+        }
+        if g.gather_rays > 0 {
+            out += &format!(
+                "  final gathering: {} gathers, {} rays ({:.1} per gather)\n",
+                g.final_gathers,
+                g.gather_rays,
+                g.gather_rays as f64 / g.final_gathers.max(1) as f64
             );
         }
         if self.light_paths > 0 {
@@ -296,4 +304,12 @@ impl Stats {
         }
         out
     }
+}
+
+/// `s` with its first letter in upper case.
+fn capitalised(s: &str) -> String {
+    let mut c = s.chars();
+    c.next()
+        .map(|f| f.to_uppercase().chain(c).collect())
+        .unwrap_or_default()
 }

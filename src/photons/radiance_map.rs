@@ -1,0 +1,152 @@
+//! The radiance map of final gathering: the radiance leaving diffuse surfaces, precomputed at
+//! photon positions (Christensen, "Faster photon map global illumination", 1999).
+//!
+//! Final gathering reads, where each gather ray meets a diffuse surface, all the light leaving
+//! it: direct, caustic and indirect. The photons of [`PathClass::AllDiffuse`] (every diffuse
+//! hit of every light path) carry exactly that light. Estimating it at each of millions of gather
+//! hits from the k nearest photons would cost a k-nearest query each; instead it is estimated once
+//! at every [`POINT_STRIDE`]-th photon, and a gather hit takes the value of the nearest such
+//! point on its side of the surface: one nearest-point query.
+//!
+//! The estimate at a point is Jensen's: `E = sum of the powers of the photons among its k
+//! nearest that face its way / (pi r^2)`, `r` the distance of the k-th (or the largest radius,
+//! when fewer lie within it); radiance `albedo / pi * E`. Its blur (a disc of `k` photons) is
+//! invisible after gathering: the gather averages many such values over the hemisphere.
+//!
+//! [`PathClass::AllDiffuse`]: crate::photons::map::PathClass::AllDiffuse
+
+use crate::photons::trace::TracedPhoton;
+use glam::{DVec3, Vec3};
+use kiddo::immutable::float::kdtree::ImmutableKdTree;
+use kiddo::SquaredEuclidean;
+use rayon::prelude::*;
+use std::f64::consts::PI;
+use std::num::NonZero;
+
+/// Photons per radiance estimate.
+pub const RADIANCE_NEIGHBOURS: usize = 64;
+
+/// Radiance is precomputed at every this many photons (Christensen uses 4: the estimates of
+/// neighbouring photons share most of their photons and barely differ).
+pub const POINT_STRIDE: usize = 4;
+
+/// Photons facing another way than a point (the other side of a thin wall, across an edge) do
+/// not count: the cosine between the normals must exceed this (as the estimators' test).
+const MIN_NORMAL_COSINE: f32 = 0.7;
+
+/// Where radiance was precomputed.
+#[derive(Debug, Clone, Copy)]
+struct RadiancePoint {
+    normal: Vec3,
+    /// Radiance leaving the surface (W/m^2/sr, RGB), the same in every direction.
+    radiance: Vec3,
+    /// Squared radius of the photons its estimate used: a gather hit farther than this from
+    /// its nearest point is where no photon arrived.
+    radius2: f32,
+}
+
+/// Radiance leaving diffuse surfaces at photon positions, for final gathering.
+pub struct RadianceMap {
+    points: Vec<RadiancePoint>,
+    tree: Option<ImmutableKdTree<f32, u32, 3, 32>>,
+    largest_radius2: f32,
+    /// Photons the estimates drew on.
+    pub photons: usize,
+    /// Their total power (W, RGB).
+    pub power: DVec3,
+}
+
+impl RadianceMap {
+    /// Precomputes radiance from `photons` (every diffuse hit, powers for a single emission)
+    /// of `emitted` emissions, each estimate gathering within `max_radius` at most.
+    pub fn new(photons: &[TracedPhoton], emitted: u64, max_radius: f64) -> Self {
+        let scale = 1.0 / emitted.max(1) as f64;
+        let positions: Vec<[f32; 3]> = photons
+            .iter()
+            .map(|p| p.ray.p.as_vec3().to_array())
+            .collect();
+        if photons.is_empty() {
+            return RadianceMap {
+                points: Vec::new(),
+                tree: None,
+                largest_radius2: 0.0,
+                photons: 0,
+                power: DVec3::ZERO,
+            };
+        }
+        let tree: ImmutableKdTree<f32, u32, 3, 32> = ImmutableKdTree::new_from_slice(&positions);
+        let k = NonZero::new(RADIANCE_NEIGHBOURS).expect("non-zero");
+        let max_r2 = (max_radius * max_radius) as f32;
+        let chosen: Vec<usize> = (0..photons.len()).step_by(POINT_STRIDE).collect();
+        let points: Vec<RadiancePoint> = chosen
+            .par_iter()
+            .map(|&i| {
+                let here = &photons[i];
+                let n = here.normal.as_vec3();
+                let found =
+                    tree.nearest_n_within::<SquaredEuclidean>(&positions[i], max_r2, k, true);
+                let r2 = if found.len() == RADIANCE_NEIGHBOURS {
+                    found.last().map_or(max_r2, |f| f.distance)
+                } else {
+                    max_r2
+                };
+                let power: DVec3 = found
+                    .iter()
+                    .map(|f| &photons[f.item as usize])
+                    .filter(|p| p.normal.as_vec3().dot(n) > MIN_NORMAL_COSINE)
+                    .map(|p| p.power)
+                    .sum();
+                let irradiance = if r2 > 0.0 {
+                    power * scale / (PI * r2 as f64)
+                } else {
+                    DVec3::ZERO
+                };
+                RadiancePoint {
+                    normal: n,
+                    radiance: (here.albedo / PI * irradiance).as_vec3(),
+                    radius2: r2,
+                }
+            })
+            .collect();
+        let largest_radius2 = points.iter().map(|p| p.radius2).fold(0.0, f32::max);
+        let at: Vec<[f32; 3]> = chosen.iter().map(|&i| positions[i]).collect();
+        RadianceMap {
+            tree: Some(ImmutableKdTree::new_from_slice(&at)),
+            points,
+            largest_radius2,
+            photons: photons.len(),
+            power: photons.iter().map(|p| p.power).sum::<DVec3>() * scale,
+        }
+    }
+
+    /// Number of points radiance was precomputed at.
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Whether it holds no point.
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    /// Radiance leaving the diffuse surface at `x` (normal `n`, facing the side looked from):
+    /// the nearest point's that faces the same way and lies within its own gather radius;
+    /// zero where no photon arrived.
+    pub fn radiance(&self, x: DVec3, n: DVec3) -> DVec3 {
+        let Some(tree) = &self.tree else {
+            return DVec3::ZERO;
+        };
+        let n = n.as_vec3();
+        let k = NonZero::new(4).expect("non-zero");
+        tree.nearest_n_within::<SquaredEuclidean>(
+            &x.as_vec3().to_array(),
+            self.largest_radius2,
+            k,
+            true,
+        )
+        .into_iter()
+        .map(|f| (f.distance, &self.points[f.item as usize]))
+        .find(|(d2, p)| p.normal.dot(n) > MIN_NORMAL_COSINE && *d2 <= p.radius2)
+        .map_or(DVec3::ZERO, |(_, p)| p.radiance.as_dvec3())
+    }
+}
