@@ -1,0 +1,156 @@
+//! The closed scene (`scenes/cornell-glass.toml`): every wall's mean and per-pixel error against
+//! the split reference, for the global map seen directly (`pd`, and the default `integrated`)
+//! and for final gathering, with each render's whole-process time.
+//!
+//! The reference is made on first use and cached in `out/reference/` (direct light on 16 x 16
+//! and 17 x 17 rays per pixel, the rest light-traced; its noise per wall from its two halves is
+//! printed beside every error, since it bounds what an error can show).
+//!
+//! Run: `cargo bench --bench closed_scene`. Environment: `PHOTONDIFF_REFERENCE_PATHS` (light
+//! paths of each kind in the reference, default 4*10^7), `PHOTONDIFF_GATHER_RAYS` (default 64).
+
+use photondiff::embree::{Device, Ray};
+use photondiff::reference::cache::{load_or_make, ReferenceSettings};
+use photondiff::reference::metrics::rel_rmse;
+use photondiff::render::film::Film;
+use photondiff::scene::file::load_scene;
+use photondiff::scene::Material;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// Runs `photondiff render SCENE -q -o OUT ARGS...`; returns its wall time in seconds.
+fn render(scene: &Path, out: &Path, args: &[String]) -> Result<f64, String> {
+    let start = Instant::now();
+    let output = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("render")
+        .arg(scene)
+        .args(["-q", "-o"])
+        .arg(out)
+        .args(args)
+        .output()
+        .map_err(|e| format!("cannot run photondiff: {e}"))?;
+    let seconds = start.elapsed().as_secs_f64();
+    if !output.status.success() {
+        return Err(format!(
+            "photondiff render {args:?} failed: {}\n{}",
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    Ok(seconds)
+}
+
+fn mean(film: &Film, pixels: &[usize]) -> f64 {
+    pixels
+        .iter()
+        .map(|&i| film.pixels[i].element_sum() / 3.0)
+        .sum::<f64>()
+        / pixels.len().max(1) as f64
+}
+
+fn main() -> Result<(), String> {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let scene_path = root.join("scenes/cornell-glass.toml");
+    let out = root.join("out");
+    let dir = out.join("closed_scene");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let paths: u64 = env_or("PHOTONDIFF_REFERENCE_PATHS", 40_000_000);
+    let gather_rays: u32 = env_or("PHOTONDIFF_GATHER_RAYS", 64);
+
+    let scene = load_scene(&scene_path).map_err(|e| e.to_string())?;
+    let device = Device::new().map_err(|e| e.to_string())?;
+    let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
+    let settings = ReferenceSettings {
+        light_paths: paths,
+        caustic_paths: paths,
+        direct_grids: [16, 17],
+    };
+    let reference = load_or_make(
+        &scene,
+        &embree,
+        &out.join("reference"),
+        "cornell-glass",
+        &settings,
+        &mut |m| eprintln!("{m}"),
+    )?;
+
+    // The walls: pixels whose centre ray first meets each diffuse quad.
+    let c = &scene.camera;
+    let mut walls: Vec<(u32, Vec<usize>)> = Vec::new();
+    for y in 0..c.height as usize {
+        for x in 0..c.width as usize {
+            let r = c.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
+            let Some(hit) = embree.intersect(&Ray::new(r.p, r.d)) else {
+                continue;
+            };
+            if !matches!(scene.material(hit.geom_id), Material::Diffuse { .. }) {
+                continue;
+            }
+            let i = y * c.width as usize + x;
+            match walls.iter_mut().find(|(g, _)| *g == hit.geom_id) {
+                Some((_, px)) => px.push(i),
+                None => walls.push((hit.geom_id, vec![i])),
+            }
+        }
+    }
+    walls.sort_by_key(|(g, _)| *g);
+
+    let gather = gather_rays.to_string();
+    let methods: Vec<(String, Vec<String>)> = vec![
+        (
+            "Regular 1x1 (`--estimator pd`)".into(),
+            vec!["--estimator".into(), "pd".into()],
+        ),
+        ("default (global map seen directly)".into(), vec![]),
+        (
+            format!("default with `--gather-rays {gather_rays}`"),
+            vec!["--gather-rays".into(), gather],
+        ),
+    ];
+    let mut rows = Vec::new();
+    for (k, (name, args)) in methods.iter().enumerate() {
+        let file = dir.join(format!("method{k}.exr"));
+        let seconds = render(&scene_path, &file, args)?;
+        eprintln!("{name}: {seconds:.1} s");
+        rows.push((name, seconds, Film::read_exr(&file)?));
+    }
+
+    println!("\n## The closed scene (`scenes/cornell-glass.toml`), per wall\n");
+    println!(
+        "Reference: {paths} + {paths} light paths, direct light on 16x16 and 17x17 rays. Each \
+         cell: mean / reference mean, and relRMSE = sqrt(mean over pixels and channels of \
+         (I - R)^2) / mean(R) over the wall's pixels.\n"
+    );
+    print!("| wall | pixels | reference noise |");
+    for (name, seconds, _) in &rows {
+        print!(" {name}, {seconds:.1} s |");
+    }
+    println!();
+    println!("|---|---|---|{}", "---|".repeat(rows.len()));
+    for (geom, px) in &walls {
+        let noise = reference.relative_noise(px);
+        print!(
+            "| {} | {} | {:.2}% |",
+            scene.meshes[*geom as usize].name,
+            px.len(),
+            100.0 * noise
+        );
+        for (_, _, film) in &rows {
+            print!(
+                " x{:.4}, {:.2}% |",
+                mean(film, px) / mean(&reference.film, px),
+                100.0 * rel_rmse(film, &reference.film, px)
+            );
+        }
+        println!();
+    }
+    Ok(())
+}
