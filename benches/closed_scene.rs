@@ -7,7 +7,8 @@
 //! printed beside every error, since it bounds what an error can show).
 //!
 //! Run: `cargo bench --bench closed_scene`. Environment: `PHOTONDIFF_REFERENCE_PATHS` (light
-//! paths of each kind in the reference, default 4*10^7), `PHOTONDIFF_GATHER_RAYS` (default 64).
+//! paths of each kind in the reference, default 4*10^7), `PHOTONDIFF_GATHER_ARGS` (the options
+//! of the final-gathering render, default `--gather-rays 64`).
 
 use photondiff::embree::{Device, Ray};
 use photondiff::reference::cache::{load_or_make, ReferenceSettings};
@@ -63,7 +64,7 @@ fn main() -> Result<(), String> {
     let dir = out.join("closed_scene");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let paths: u64 = env_or("PHOTONDIFF_REFERENCE_PATHS", 40_000_000);
-    let gather_rays: u32 = env_or("PHOTONDIFF_GATHER_RAYS", 64);
+    let gather_args: String = env_or("PHOTONDIFF_GATHER_ARGS", "--gather-rays 64".to_string());
 
     let scene = load_scene(&scene_path).map_err(|e| e.to_string())?;
     let device = Device::new().map_err(|e| e.to_string())?;
@@ -103,7 +104,6 @@ fn main() -> Result<(), String> {
     }
     walls.sort_by_key(|(g, _)| *g);
 
-    let gather = gather_rays.to_string();
     let methods: Vec<(String, Vec<String>)> = vec![
         (
             "Regular 1x1 (`--estimator pd`)".into(),
@@ -111,8 +111,8 @@ fn main() -> Result<(), String> {
         ),
         ("default (global map seen directly)".into(), vec![]),
         (
-            format!("default with `--gather-rays {gather_rays}`"),
-            vec!["--gather-rays".into(), gather],
+            format!("`{gather_args}`"),
+            gather_args.split_whitespace().map(String::from).collect(),
         ),
     ];
     let mut rows = Vec::new();

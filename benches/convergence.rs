@@ -33,7 +33,7 @@ use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::reference::report::{self, Chart, Render, Report, Table};
 use photondiff::render::film::Film;
 use photondiff::render::pass_sum::PassSum;
-use photondiff::render::passes::{Progressive, DEFAULT_ALPHA};
+use photondiff::render::passes::{Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS};
 use photondiff::render::stats::Stats;
 use photondiff::render::RenderOptions;
 use photondiff::scene::file::load_scene;
@@ -90,7 +90,15 @@ fn progressive(
     threads: usize,
     (reference, regions): (&Reference, &Regions),
 ) -> Result<Points, String> {
-    let photons = PhotonOptions::default();
+    // As `--time-budget` renders each estimate: `integrated` with the default render's caustic
+    // photons per pass, the others with the thesis's.
+    let photons = PhotonOptions {
+        caustic_photons: match kind {
+            EstimatorKind::Integrated => DEFAULT_CAUSTIC_PHOTONS,
+            _ => PhotonOptions::default().caustic_photons,
+        },
+        ..PhotonOptions::default()
+    };
     let estimator = EstimatorSettings {
         kind,
         k: 50,
