@@ -10,44 +10,15 @@
 //! paths of each kind in the reference, default 4*10^7), `PHOTONDIFF_GATHER_ARGS` (the options
 //! of the final-gathering render, default `--gather-rays 64`).
 
-use photondiff::embree::{Device, Ray};
-use photondiff::reference::cache::{load_or_make, ReferenceSettings};
+use photondiff::embree::Ray;
 use photondiff::reference::metrics::rel_rmse;
 use photondiff::render::film::Film;
-use photondiff::scene::file::load_scene;
 use photondiff::scene::Material;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::Instant;
+use std::path::PathBuf;
 
-fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
-/// Runs `photondiff render SCENE -q -o OUT ARGS...`; returns its wall time in seconds.
-fn render(scene: &Path, out: &Path, args: &[String]) -> Result<f64, String> {
-    let start = Instant::now();
-    let output = Command::new(env!("CARGO_BIN_EXE_photondiff"))
-        .arg("render")
-        .arg(scene)
-        .args(["-q", "-o"])
-        .arg(out)
-        .args(args)
-        .output()
-        .map_err(|e| format!("cannot run photondiff: {e}"))?;
-    let seconds = start.elapsed().as_secs_f64();
-    if !output.status.success() {
-        return Err(format!(
-            "photondiff render {args:?} failed: {}\n{}",
-            output.status,
-            String::from_utf8_lossy(&output.stderr)
-        ));
-    }
-    Ok(seconds)
-}
+#[path = "common/mod.rs"]
+mod common;
+use common::{env_or, render_process as render, scene_with_reference};
 
 fn mean(film: &Film, pixels: &[usize]) -> f64 {
     pixels
@@ -66,22 +37,8 @@ fn main() -> Result<(), String> {
     let paths: u64 = env_or("PHOTONDIFF_REFERENCE_PATHS", 40_000_000);
     let gather_args: String = env_or("PHOTONDIFF_GATHER_ARGS", "--gather-rays 64".to_string());
 
-    let scene = load_scene(&scene_path).map_err(|e| e.to_string())?;
-    let device = Device::new().map_err(|e| e.to_string())?;
-    let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
-    let settings = ReferenceSettings {
-        light_paths: paths,
-        caustic_paths: paths,
-        direct_grids: [16, 17],
-    };
-    let reference = load_or_make(
-        &scene,
-        &embree,
-        &out.join("reference"),
-        "cornell-glass",
-        &settings,
-        &mut |m| eprintln!("{m}"),
-    )?;
+    let (scene, embree, reference) =
+        scene_with_reference("cornell-glass.toml", "cornell-glass", paths)?;
 
     // The walls: pixels whose centre ray first meets each diffuse quad.
     let c = &scene.camera;

@@ -9,50 +9,13 @@
 //! Run: `cargo bench --bench default_render`. Environment: `PHOTONDIFF_REPEATS` (default 5),
 //! `PHOTONDIFF_REFERENCE_PATHS` (paths per set of the reference, default 2*10^8).
 
-use photondiff::embree::Device;
-use photondiff::reference::cache::{load_or_make, ReferenceSettings};
 use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::render::film::Film;
-use photondiff::scene::file::load_scene;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-use std::time::Instant;
+use std::path::PathBuf;
 
-fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
-fn median(mut t: Vec<f64>) -> f64 {
-    t.sort_by(f64::total_cmp);
-    t[t.len() / 2]
-}
-
-/// Runs `photondiff render SCENE -q -o OUT ARGS...`; returns its wall time in seconds.
-fn render(scene: &Path, out: &Path, args: &[&str]) -> Result<f64, String> {
-    let start = Instant::now();
-    let output = Command::new(env!("CARGO_BIN_EXE_photondiff"))
-        .arg("render")
-        .arg(scene)
-        .args(["-q", "-o"])
-        .arg(out)
-        .args(args)
-        .output()
-        .map_err(|e| format!("cannot run photondiff: {e}"))?;
-    let seconds = start.elapsed().as_secs_f64();
-    // Its warnings (the open scene's global map falls short) would repeat every run: shown
-    // only when it fails.
-    if !output.status.success() {
-        return Err(format!(
-            "photondiff render {args:?} failed: {}\n{}",
-            output.status,
-            String::from_utf8_lossy(&output.stderr)
-        ));
-    }
-    Ok(seconds)
-}
+#[path = "common/mod.rs"]
+mod common;
+use common::{env_or, median, render_process as render, scene_with_reference};
 
 fn main() -> Result<(), String> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
@@ -63,22 +26,8 @@ fn main() -> Result<(), String> {
     let repeats: usize = env_or("PHOTONDIFF_REPEATS", 5).max(1);
     let paths: u64 = env_or("PHOTONDIFF_REFERENCE_PATHS", 200_000_000);
 
-    let scene = load_scene(&scene_path).map_err(|e| e.to_string())?;
-    let device = Device::new().map_err(|e| e.to_string())?;
-    let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
-    let settings = ReferenceSettings {
-        light_paths: paths,
-        caustic_paths: paths,
-        direct_grids: [16, 17],
-    };
-    let reference = load_or_make(
-        &scene,
-        &embree,
-        &out.join("reference"),
-        "caustic-sphere",
-        &settings,
-        &mut |m| eprintln!("{m}"),
-    )?;
+    let (scene, embree, reference) =
+        scene_with_reference("caustic-sphere.toml", "caustic-sphere", paths)?;
     let regions = Regions::new(&scene, &embree, &reference.film);
 
     let methods: [(&str, &[&str]); 2] = [

@@ -1,0 +1,87 @@
+//! What several benchmarks share: settings from the environment, medians, and whole
+//! `photondiff render` processes timed as a user runs them. Each benchmark uses part of it.
+#![allow(dead_code)]
+
+use std::path::Path;
+use std::process::Command;
+use std::time::Instant;
+
+/// The environment variable `name` parsed, or `default` when it is unset or does not parse.
+pub fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// The median (the upper one of an even count).
+pub fn median(mut t: Vec<f64>) -> f64 {
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+/// Runs `photondiff render SCENE -q -o OUT ARGS...` (this package's binary); returns its wall
+/// time in seconds. Its standard error (the open scene's global map falls short, a warning that
+/// would repeat every run) is shown only when it fails.
+pub fn render_process<S: AsRef<std::ffi::OsStr>>(
+    scene: &Path,
+    out: &Path,
+    args: &[S],
+) -> Result<f64, String> {
+    let start = Instant::now();
+    let output = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("render")
+        .arg(scene)
+        .args(["-q", "-o"])
+        .arg(out)
+        .args(args)
+        .output()
+        .map_err(|e| format!("cannot run photondiff: {e}"))?;
+    let seconds = start.elapsed().as_secs_f64();
+    if !output.status.success() {
+        let args: Vec<_> = args.iter().map(|a| a.as_ref().to_string_lossy()).collect();
+        return Err(format!(
+            "photondiff render {args:?} failed: {}\n{}",
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    Ok(seconds)
+}
+
+/// `scenes/{file}` of this package, built into Embree, and its split reference of `paths` +
+/// `paths` light paths (direct light on 16x16 and 17x17 rays per pixel), made on first use and
+/// cached in `out/reference/` as `{name}-...`.
+pub fn scene_with_reference(
+    file: &str,
+    name: &str,
+    paths: u64,
+) -> Result<
+    (
+        photondiff::scene::Scene,
+        photondiff::embree::Scene,
+        photondiff::reference::cache::Reference,
+    ),
+    String,
+> {
+    use photondiff::reference::cache::{load_or_make, ReferenceSettings};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = photondiff::scene::file::load_scene(&root.join("scenes").join(file))
+        .map_err(|e| e.to_string())?;
+    let device = photondiff::embree::Device::new().map_err(|e| e.to_string())?;
+    let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
+    let settings = ReferenceSettings {
+        light_paths: paths,
+        caustic_paths: paths,
+        direct_grids: [16, 17],
+    };
+    let reference = load_or_make(
+        &scene,
+        &embree,
+        &root.join("out/reference"),
+        name,
+        &settings,
+        &mut |m| eprintln!("{m}"),
+    )?;
+    Ok((scene, embree, reference))
+}
