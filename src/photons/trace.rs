@@ -13,7 +13,6 @@ use crate::photons::emission::{Emission, Emitter};
 use crate::photons::footprint::{footprint, FootprintLimits, Guards};
 use crate::photons::light_path::{DiffuseHit, LightPaths};
 use crate::photons::map::{PathClass, Photon, PhotonMap};
-use crate::photons::radiance_map::RadianceMap;
 use crate::scene::Scene;
 use crate::util::rng::Rng;
 use glam::DVec3;
@@ -330,27 +329,6 @@ impl<'a> PhotonTracer<'a> {
             }
         }
         rays
-    }
-
-    /// The radiance map of final gathering: [`PhotonTracer::trace_photons`] for
-    /// [`PathClass::AllDiffuse`] until `stored` photons, then radiance precomputed at them.
-    pub fn build_radiance_map(
-        &self,
-        emitter: &Emitter,
-        stored: usize,
-        progress: &indicatif::ProgressBar,
-    ) -> (RadianceMap, TraceCounts) {
-        let (traced, counts) = self.trace_photons(
-            emitter,
-            PathClass::AllDiffuse,
-            StopRule::Stored(stored),
-            progress,
-        );
-        let max_radius = self.options.limits(self.scene).max_radius;
-        (
-            RadianceMap::new(&traced, counts.emitted, max_radius),
-            counts,
-        )
     }
 
     /// [`PhotonTracer::trace_photons`], then the photons' powers divided by the number of

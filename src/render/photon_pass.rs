@@ -6,12 +6,13 @@ use crate::embree;
 use crate::photons::emission::Emitter;
 use crate::photons::footprint::Guards;
 use crate::photons::map::{PathClass, PhotonMap};
+use crate::photons::radiance_map::RadianceMap;
 use crate::photons::trace::{max_emissions, PhotonOptions, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
 
-/// Traces both maps on `threads` threads (0 = all), recording a "trace photons" stage and the
-/// maps' statistics in `stats`.
+/// Traces both maps on `threads` threads (0 = all), recording a "trace photons" stage (and a
+/// "radiance map" stage with final gathering) and the maps' statistics in `stats`.
 pub fn trace_photon_maps(
     scene: &Scene,
     embree: &embree::Scene,
@@ -27,7 +28,9 @@ pub fn trace_photon_maps(
     let tracer = PhotonTracer::new(scene, embree, options);
     let total = (options.caustic_photons + options.global_photons) as u64;
     let bar = crate::util::progress::bar(progress, total, "photons");
-    let (maps, counts) = stats.time("trace photons", || {
+    // With final gathering the global photons go to the radiance map, whose precomputation is
+    // a stage of its own ("radiance map"), so that its cost shows.
+    let (caustic, global, counts) = stats.time("trace photons", || {
         pool.install(|| {
             let caustic_emitter = Emitter::caustic(
                 scene,
@@ -43,32 +46,36 @@ pub fn trace_photon_maps(
             );
             let global_emitter =
                 Emitter::global(scene, options.global_photons, options.overlap, options.seed);
+            let stop = StopRule::Stored(options.global_photons);
             if options.radiance_map {
-                let (radiance, g) =
-                    tracer.build_radiance_map(&global_emitter, options.global_photons, &bar);
-                let global = PhotonMap::new(PathClass::Global, Vec::new(), 0, Guards::default());
-                let maps = PhotonMaps {
-                    caustic,
-                    global,
-                    radiance: Some(radiance),
-                };
-                (maps, [c, g])
+                let (traced, g) =
+                    tracer.trace_photons(&global_emitter, PathClass::AllDiffuse, stop, &bar);
+                (caustic, Err(traced), [c, g])
             } else {
-                let (global, g) = tracer.build_map(
-                    &global_emitter,
-                    PathClass::Global,
-                    StopRule::Stored(options.global_photons),
-                    &bar,
-                );
-                let maps = PhotonMaps {
-                    caustic,
-                    global,
-                    radiance: None,
-                };
-                (maps, [c, g])
+                let (global, g) = tracer.build_map(&global_emitter, PathClass::Global, stop, &bar);
+                (caustic, Ok(global), [c, g])
             }
         })
     });
+    let maps = match global {
+        Ok(global) => PhotonMaps {
+            caustic,
+            global,
+            radiance: None,
+        },
+        Err(traced) => {
+            let max_radius = options.limits(scene).max_radius;
+            let emitted = counts[1].emitted;
+            let radiance = stats.time("radiance map", || {
+                pool.install(|| RadianceMap::new(&traced, emitted, max_radius))
+            });
+            PhotonMaps {
+                caustic,
+                global: PhotonMap::new(PathClass::Global, Vec::new(), 0, Guards::default()),
+                radiance: Some(radiance),
+            }
+        }
+    };
     bar.finish_and_clear();
     record(&maps, &counts, options, stats);
     Ok(maps)
