@@ -194,7 +194,9 @@ impl Cluster {
         let id = id.trim().to_string();
         assert!(!id.is_empty(), "sbatch --wrap true printed no job id");
         loop {
-            let state = self.run(&["squeue", "-h", "-j", &id, "-o", "%T"]);
+            // `-t all`: by default squeue leaves out finished jobs, and a job that finished
+            // between two polls would look pending until the time limit.
+            let state = self.run(&["squeue", "-h", "-t", "all", "-j", &id, "-o", "%T"]);
             if !matches!(state.trim(), "PENDING" | "") {
                 break;
             }
