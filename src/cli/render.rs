@@ -2,6 +2,7 @@
 
 use super::create_parent;
 use photondiff::embree::{BvhQuality, BvhSettings, Device};
+use photondiff::estimate::final_gather::MAX_GATHER_RAYS;
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
@@ -69,7 +70,7 @@ pub struct RenderArgs {
     /// from N stratified cosine-distributed gather rays, which pass through mirrors and glass
     /// and read radiance precomputed from photons at every diffuse hit (--photons of them);
     /// 0 views the global map directly. At most 4096.
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=4096))]
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=MAX_GATHER_RAYS as i64))]
     gather_rays: u32,
     /// Nearest photons per regular (jensen) estimate.
     #[arg(long, value_name = "N", default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=10_000))]

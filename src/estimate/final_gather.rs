@@ -19,7 +19,7 @@
 
 use super::{GatherCounts, GatherQuery, RadianceEstimator};
 use crate::embree;
-use crate::geometry::differential::{fresnel_dielectric, RayDifferential, Refraction};
+use crate::geometry::differential::{GlassInterface, RayDifferential};
 use crate::geometry::sampling::sample_cosine;
 use crate::geometry::surface::{continuation, facing, surface_frame, transfer_to};
 use crate::photons::radiance_map::RadianceMap;
@@ -75,14 +75,8 @@ impl FinalGather<'_> {
                     ray = at_hit.reflect(&frame);
                 }
                 Material::Glass { ior } => {
-                    let entering = ray.d.dot(hit.geometric_normal) < 0.0;
-                    let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
-                    let f = fresnel_dielectric(-ray.d.dot(frame.n), n_from, n_to);
-                    ray = match at_hit.refract(&frame, n_from, n_to) {
-                        Refraction::Transmitted(t) if rng.uniform() >= f => t,
-                        Refraction::Transmitted(_) => at_hit.reflect(&frame),
-                        Refraction::TotalInternalReflection(r) => r,
-                    };
+                    let glass = GlassInterface::new(ray.d, hit.geometric_normal, frame.n, ior);
+                    ray = at_hit.through_glass(&frame, &glass, rng.uniform());
                 }
             }
             if weight.max_element() <= 0.0 {

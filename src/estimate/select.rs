@@ -78,7 +78,8 @@ impl PhotonMaps {
             return Ok(estimators);
         }
         let map = self.radiance.as_ref().ok_or(
-            "final gathering needs the radiance map, which only traced photon maps hold              (not photon-map files)",
+            "final gathering needs the radiance map, which only traced photon maps hold \
+             (not photon-map files)",
         )?;
         estimators.truncate(1);
         estimators.push(Box::new(FinalGather {

@@ -117,6 +117,47 @@ impl RayDifferential {
         }
         Refraction::Transmitted(out)
     }
+
+    /// Through glass `g` at this hit (`frame` its surface): reflected when `u` (uniform in
+    /// [0, 1)) falls below the Fresnel reflectance, refracted otherwise, so that the carried
+    /// power needs no weight.
+    pub fn through_glass(&self, frame: &SurfaceFrame, g: &GlassInterface, u: f64) -> Self {
+        if u < g.reflectance {
+            self.reflect(frame)
+        } else {
+            match self.refract(frame, g.n_from, g.n_to) {
+                Refraction::Transmitted(t) => t,
+                Refraction::TotalInternalReflection(r) => r,
+            }
+        }
+    }
+}
+
+/// A glass surface of index `ior` (outside 1) met by a ray: the indices the ray goes from and
+/// into and the Fresnel reflectance there. Shared by camera paths (which follow both branches),
+/// light paths and gather rays (which choose one, [`RayDifferential::through_glass`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GlassInterface {
+    /// Index on the ray's side.
+    pub n_from: f64,
+    /// Index on the other side.
+    pub n_to: f64,
+    /// Fresnel reflectance (1 under total internal reflection).
+    pub reflectance: f64,
+}
+
+impl GlassInterface {
+    /// Glass of index `ior` met along `d`, entering when `d` opposes the geometric normal
+    /// `ng`; the reflectance is taken about the shading normal `n` facing the ray.
+    pub fn new(d: DVec3, ng: DVec3, n: DVec3, ior: f64) -> Self {
+        let entering = d.dot(ng) < 0.0;
+        let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
+        GlassInterface {
+            n_from,
+            n_to,
+            reflectance: fresnel_dielectric(-d.dot(n), n_from, n_to),
+        }
+    }
 }
 
 /// Fresnel reflectance of an unpolarised wave at a dielectric interface, for the cosine

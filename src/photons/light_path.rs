@@ -5,7 +5,7 @@
 //! rays.
 
 use crate::embree::{self, Hit, Ray};
-use crate::geometry::differential::{fresnel_dielectric, RayDifferential, Refraction};
+use crate::geometry::differential::{GlassInterface, RayDifferential};
 use crate::geometry::sampling::{sample_cosine, tangent_frame};
 use crate::geometry::surface::{continuation, surface_frame, transfer_to};
 use crate::photons::emission::Emission;
@@ -252,18 +252,8 @@ impl LightPaths<'_> {
                 true
             }
             Material::Glass { ior } => {
-                let entering = at.d.dot(hit.geometric_normal) < 0.0;
-                let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
-                let f = fresnel_dielectric(-at.d.dot(frame.n), n_from, n_to);
-                // Reflect with probability F, refract otherwise: the power is unchanged.
-                state.ray = if rng.uniform() < f {
-                    at.reflect(&frame)
-                } else {
-                    match at.refract(&frame, n_from, n_to) {
-                        Refraction::Transmitted(t) => t,
-                        Refraction::TotalInternalReflection(r) => r,
-                    }
-                };
+                let glass = GlassInterface::new(at.d, hit.geometric_normal, frame.n, ior);
+                state.ray = at.through_glass(&frame, &glass, rng.uniform());
                 state.specular += 1;
                 true
             }

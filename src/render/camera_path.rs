@@ -5,7 +5,7 @@
 //! drops below [`MIN_BRANCH_WEIGHT`].
 
 use crate::embree::{self, Hit};
-use crate::geometry::differential::{fresnel_dielectric, RayDifferential, Refraction};
+use crate::geometry::differential::{GlassInterface, RayDifferential, Refraction};
 use crate::geometry::surface::{continuation, surface_frame, transfer_to};
 use crate::render::stats::RayCounts;
 use crate::scene::{Material, Scene};
@@ -97,10 +97,9 @@ impl ViewPaths<'_> {
                 );
             }
             Material::Glass { ior } => {
-                let entering = d.dot(hit.geometric_normal) < 0.0;
-                let (n_from, n_to) = if entering { (1.0, ior) } else { (ior, 1.0) };
-                let f = fresnel_dielectric(-d.dot(frame.n), n_from, n_to);
-                match at_hit.refract(&frame, n_from, n_to) {
+                let glass = GlassInterface::new(d, hit.geometric_normal, frame.n, ior);
+                let f = glass.reflectance;
+                match at_hit.refract(&frame, glass.n_from, glass.n_to) {
                     Refraction::Transmitted(t) => {
                         let reflected = at_hit.reflect(&frame);
                         self.branch(
