@@ -38,7 +38,7 @@ fn main() -> Result<(), String> {
     let gather_args: String = env_or("PHOTONDIFF_GATHER_ARGS", "--gather-rays 64".to_string());
 
     let (scene, embree, reference) =
-        scene_with_reference("cornell-glass.toml", "cornell-glass", paths)?;
+        scene_with_reference("cornell-glass.toml", "cornell-glass", paths, paths)?;
 
     // The walls: pixels whose centre ray first meets each diffuse quad.
     let c = &scene.camera;

@@ -33,7 +33,9 @@ use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::reference::report::{self, Chart, Render, Report, Table};
 use photondiff::render::film::Film;
 use photondiff::render::pass_sum::PassSum;
-use photondiff::render::passes::{Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS};
+use photondiff::render::passes::{
+    Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
+};
 use photondiff::render::stats::Stats;
 use photondiff::render::RenderOptions;
 use photondiff::scene::file::load_scene;
@@ -91,7 +93,7 @@ fn progressive(
     (reference, regions): (&Reference, &Regions),
 ) -> Result<Points, String> {
     // As `--time-budget` renders each estimate: `integrated` with the default render's caustic
-    // photons per pass, the others with the thesis's.
+    // photons per pass and footprint shadow rays, the others with the thesis's settings.
     let photons = PhotonOptions {
         caustic_photons: match kind {
             EstimatorKind::Integrated => DEFAULT_CAUSTIC_PHOTONS,
@@ -114,6 +116,10 @@ fn progressive(
         estimator,
         render: RenderOptions::default()
             .with_view_grid(view_grid)
+            .with_footprint_strata(match kind {
+                EstimatorKind::Integrated => DEFAULT_FOOTPRINT_SHADOW_RAYS,
+                _ => 1,
+            })
             .with_threads(threads),
         alpha: DEFAULT_ALPHA,
     };

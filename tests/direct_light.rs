@@ -215,3 +215,74 @@ fn images_are_bit_identical_whatever_the_thread_count() {
     .unwrap();
     assert!(one != other, "the seed changes nothing");
 }
+
+/// Pixels across the edge of the sphere's shadow on the floor of the canonical scene: their
+/// direct light is the lit fraction of their footprint times the falloff. One shadow ray per
+/// pixel calls each pixel lit or dark; `N x N` footprint shadow rays sample the fraction.
+#[test]
+fn footprint_shadow_rays_sample_a_shadow_edge_within_the_pixel() {
+    use photondiff::embree::Ray;
+    let scene = canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let camera = &scene.camera;
+    let light = DVec3::new(-4.0, 4.0, -1.0);
+    let lit = |p: DVec3| {
+        let from = p + DVec3::Y * 1e-4;
+        let to = light - from;
+        let d = to.length();
+        !embree.occluded(&Ray::segment(from, to / d, d))
+    };
+    // Rays through the pixel that all meet the floor before anything else.
+    let sees_floor_only = |px: u32, py: u32| {
+        [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)]
+            .iter()
+            .all(|&(a, b)| {
+                let r = camera.ray(px as f64 + a, py as f64 + b, 1.0);
+                embree
+                    .intersect(&Ray::new(r.p, r.d))
+                    .is_some_and(|h| h.geom_id == 0)
+            })
+    };
+    // The row through the shadow's centre (the sphere's centre projected from the light).
+    let (_, y) = camera
+        .project(DVec3::new(4.0 / 3.0, 0.0, 1.0 / 3.0))
+        .unwrap();
+    let py = y.floor() as u32;
+    let mut edge = Vec::new();
+    for px in 0..camera.width {
+        if !sees_floor_only(px, py) {
+            continue;
+        }
+        let fraction = pixel_average(camera, px, py, 4, |p| f64::from(u8::from(lit(p))));
+        if fraction > 0.1 && fraction < 0.9 {
+            let expected = pixel_average(camera, px, py, 48, |p| {
+                floor_radiance(p, light, 60.0, 0.75) * f64::from(u8::from(lit(p)))
+            });
+            let unblocked =
+                pixel_average(camera, px, py, 8, |p| floor_radiance(p, light, 60.0, 0.75));
+            edge.push((px, expected, unblocked));
+        }
+    }
+    assert!(edge.len() >= 2, "the row crosses the shadow's edge twice");
+    let worst = |strata: u32| {
+        let film = render(
+            &scene,
+            &embree,
+            &[],
+            &RenderOptions::default().with_footprint_strata(strata),
+            &mut Stats::default(),
+        )
+        .unwrap();
+        edge.iter()
+            .map(|&(px, expected, unblocked)| (film.pixel(px, py).x - expected).abs() / unblocked)
+            .fold(0.0, f64::max)
+    };
+    // 8 x 8 points on a straight edge miss at most a strip of about one point's cell.
+    let (one, eight) = (worst(1), worst(8));
+    assert!(
+        eight <= 0.08,
+        "8 x 8 footprint shadow rays: worst error {eight}"
+    );
+    assert!(one >= 0.2, "one shadow ray: worst error only {one}");
+}

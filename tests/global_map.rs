@@ -111,3 +111,59 @@ fn the_global_map_holds_the_photons_asked_for_or_says_why_not() {
     assert!(film.pixels.iter().all(|p| p.is_finite()));
     assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
 }
+
+/// In the canonical (open) scene global photons are light that went floor -> glass sphere ->
+/// floor. Aiming half the diffuse bounces at the sphere stores many more of them for the same
+/// emissions, and the map carries the same power (the weights undo the aim): the two totals
+/// agree within four of their combined standard errors.
+#[test]
+fn aimed_bounces_store_more_global_photons_carrying_the_same_light() {
+    use photondiff::embree::Device;
+    use photondiff::photons::emission::Emitter;
+    use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+    let scene = photondiff::scene::file::load_scene(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    )))
+    .unwrap();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let emissions = 2_000_000;
+    let map = |aim: f64| {
+        let options = PhotonOptions {
+            global_aim: aim,
+            ..PhotonOptions::default()
+        };
+        let tracer = PhotonTracer::new(&scene, &embree, &options);
+        let emitter = Emitter::global(&scene, options.global_photons, options.overlap, 0);
+        let (map, counts) = tracer.build_map(
+            &emitter,
+            PathClass::Global,
+            StopRule::Emitted(emissions),
+            &indicatif::ProgressBar::hidden(),
+        );
+        assert_eq!(counts.emitted, emissions as u64);
+        // The total and its standard error: each emission adds its photons' powers; with few
+        // photons per emission the variance of the sum is about the sum of their squares.
+        let power: Vec<f64> = map.photons.iter().map(|p| f64::from(p.power.y)).collect();
+        let total: f64 = power.iter().sum();
+        let error = power.iter().map(|p| p * p).sum::<f64>().sqrt();
+        (map.len(), total, error)
+    };
+    let (plain_count, plain, plain_error) = map(0.0);
+    let (aimed_count, aimed, aimed_error) = map(0.5);
+    assert!(plain_count > 100, "{plain_count} photons without aim");
+    assert!(
+        aimed_count > 10 * plain_count,
+        "{aimed_count} aimed photons against {plain_count}"
+    );
+    let sigma = (plain_error * plain_error + aimed_error * aimed_error).sqrt();
+    assert!(
+        (aimed - plain).abs() <= 4.0 * sigma,
+        "aimed {aimed} against {plain} (standard error {sigma})"
+    );
+    assert!(
+        aimed_error < 0.6 * plain_error,
+        "{aimed_error} {plain_error}"
+    );
+}

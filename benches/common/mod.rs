@@ -49,13 +49,14 @@ pub fn render_process<S: AsRef<std::ffi::OsStr>>(
     Ok(seconds)
 }
 
-/// `scenes/{file}` of this package, built into Embree, and its split reference of `paths` +
-/// `paths` light paths (direct light on 16x16 and 17x17 rays per pixel), made on first use and
-/// cached in `out/reference/` as `{name}-...`.
+/// `scenes/{file}` of this package, built into Embree, and its split reference of
+/// `light_paths` isotropic + `caustic_paths` aimed light paths (direct light on 16x16 and
+/// 17x17 rays per pixel), made on first use and cached in `out/reference/` as `{name}-...`.
 pub fn scene_with_reference(
     file: &str,
     name: &str,
-    paths: u64,
+    light_paths: u64,
+    caustic_paths: u64,
 ) -> Result<
     (
         photondiff::scene::Scene,
@@ -71,8 +72,8 @@ pub fn scene_with_reference(
     let device = photondiff::embree::Device::new().map_err(|e| e.to_string())?;
     let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
     let settings = ReferenceSettings {
-        light_paths: paths,
-        caustic_paths: paths,
+        light_paths,
+        caustic_paths,
         direct_grids: [16, 17],
     };
     let reference = load_or_make(

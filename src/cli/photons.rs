@@ -23,13 +23,17 @@ pub struct PhotonsArgs {
     #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
     global_photons: usize,
     /// Photons stored in the caustic map (as `render --caustic-photons`; the default is the
-    /// default render's, 80,000: maps for `--estimator pd` and the thesis's other estimators
+    /// default render's, 70,000: maps for `--estimator pd` and the thesis's other estimators
     /// at their default take `--caustic-photons 20000`).
     #[arg(long, value_name = "N", default_value_t = photondiff::render::passes::DEFAULT_CAUSTIC_PHOTONS)]
     caustic_photons: usize,
     /// Photon footprint size (as `render --overlap`).
     #[arg(long, value_name = "X", default_value_t = 32.0)]
     overlap: f64,
+    /// Share of the global photons' diffuse bounces aimed at the mirror and glass objects
+    /// (as `render --global-aim`).
+    #[arg(long, value_name = "P", default_value_t = 0.15)]
+    global_aim: f64,
     /// Seed of the photons' random streams (as `render --seed`).
     #[arg(long, value_name = "S", default_value_t = 0)]
     seed: u64,
@@ -49,6 +53,12 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
             args.overlap
         ));
     }
+    if !(0.0..1.0).contains(&args.global_aim) {
+        return Err(format!(
+            "--global-aim must be at least 0 and less than 1, got {}",
+            args.global_aim
+        ));
+    }
     let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;
     let hash = scene_hash(&args.scene)?;
     let device = Device::new().map_err(|e| e.to_string())?;
@@ -60,6 +70,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         caustic_photons: args.caustic_photons,
         overlap: args.overlap,
         seed: args.seed,
+        global_aim: args.global_aim,
         ..PhotonOptions::default()
     };
     let mut stats = Stats::default();

@@ -17,6 +17,7 @@
 
 use crate::geometry::differential::RayDifferential;
 use crate::geometry::sampling::{r2, sample_cone, sample_cosine, tangent_frame};
+use crate::photons::targets::{cone, cone_solid_angle, specular_targets, Target};
 use crate::scene::{Light, Scene};
 use crate::util::rng::Rng;
 use glam::DVec3;
@@ -30,28 +31,6 @@ pub struct Emission {
     pub ray: RayDifferential,
     /// Power for a single emission (W, RGB).
     pub power: DVec3,
-}
-
-/// A bounding sphere of a specular mesh.
-#[derive(Debug, Clone, Copy)]
-struct Target {
-    center: DVec3,
-    radius: f64,
-}
-
-/// The cone from `from` around a target: its axis and the cosine of its half-angle.
-fn cone(from: DVec3, target: &Target) -> (DVec3, f64) {
-    let to = target.center - from;
-    let d = to.length();
-    if d <= target.radius * (1.0 + 1e-9) {
-        return (DVec3::Y, -1.0); // inside the sphere: every direction
-    }
-    let sin = target.radius / d;
-    (to / d, (1.0 - sin * sin).sqrt())
-}
-
-fn cone_solid_angle(cos_max: f64) -> f64 {
-    2.0 * PI * (1.0 - cos_max)
 }
 
 fn mean(c: DVec3) -> f64 {
@@ -116,30 +95,7 @@ impl Emitter {
     /// Emission of caustic photons towards the bounding spheres of the specular meshes.
     /// Empty when the scene has no specular mesh.
     pub fn caustic(scene: &Scene, photons: usize, overlap: f64, seed: u64) -> Self {
-        // An instance's sphere is its mesh's sphere, moved and grown by the transform's largest
-        // stretch; each mesh's positions are read once.
-        let mut local: Vec<(&std::sync::Arc<crate::embree::TriangleMesh>, Target)> = Vec::new();
-        let mut targets: Vec<Target> = Vec::new();
-        for m in scene.meshes.iter().filter(|m| m.material.is_specular()) {
-            let sphere = match local
-                .iter()
-                .find(|(u, _)| std::sync::Arc::ptr_eq(u, &m.mesh))
-            {
-                Some((_, t)) => *t,
-                None => {
-                    let t = bounding_sphere(&m.mesh.positions);
-                    local.push((&m.mesh, t));
-                    t
-                }
-            };
-            targets.push(match m.transform {
-                None => sphere,
-                Some(to_world) => Target {
-                    center: to_world.transform_point3(sphere.center),
-                    radius: sphere.radius * largest_stretch(to_world.matrix3),
-                },
-            });
-        }
+        let targets = specular_targets(scene);
         let mut pairs = Vec::new();
         for light in &scene.lights {
             for t in &targets {
@@ -370,59 +326,9 @@ pub fn light_power(light: &Light) -> f64 {
     }
 }
 
-/// The largest factor by which `l` stretches a vector (its largest singular value), from a
-/// power iteration on `l^T l` started along every axis, a hair larger for safety.
-fn largest_stretch(l: glam::DMat3) -> f64 {
-    let gram = l.transpose() * l;
-    let mut best: f64 = 0.0;
-    for start in [DVec3::X, DVec3::Y, DVec3::Z, DVec3::ONE] {
-        let mut v = start.normalize();
-        for _ in 0..64 {
-            let w = gram * v;
-            let n = w.length();
-            if n == 0.0 {
-                break;
-            }
-            v = w / n;
-        }
-        best = best.max((l * v).length());
-    }
-    best * (1.0 + 1e-6)
-}
-
-fn bounding_sphere(positions: &[[f32; 3]]) -> Target {
-    let points = positions.iter().map(|p| DVec3::from(p.map(f64::from)));
-    let (lo, hi) = points.clone().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(p), hi.max(p)),
-    );
-    let center = (lo + hi) * 0.5;
-    let radius = points.map(|p| (p - center).length()).fold(0.0, f64::max);
-    // A hair larger, so that rays grazing the tessellated surface are inside the cone.
-    Target {
-        center,
-        radius: radius * (1.0 + 1e-6) + 1e-9,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_largest_stretch_is_the_largest_singular_value() {
-        use glam::{DMat3, DQuat};
-        let r = DMat3::from_quat(DQuat::from_euler(glam::EulerRot::ZYX, 0.3, -1.1, 0.7));
-        let l = r * DMat3::from_diagonal(DVec3::new(0.5, 3.0, -2.0));
-        assert!((largest_stretch(l) - 3.0).abs() < 1e-5);
-        assert!((largest_stretch(r) - 1.0).abs() < 1e-5);
-        // Never less than what any vector is stretched by.
-        for i in 0..100 {
-            let (u, v) = r2(i, [0.1, 0.2]);
-            let d = DVec3::new(u - 0.5, v - 0.5, 0.3).normalize();
-            assert!((l * d).length() <= largest_stretch(l));
-        }
-    }
 
     #[test]
     fn cone_samples_stay_in_the_cone_and_cosine_samples_above_the_surface() {

@@ -51,6 +51,7 @@ pub fn settings(options: &PhotonOptions) -> BTreeMap<String, String> {
         ("--caustic-photons", options.caustic_photons.to_string()),
         ("--overlap", options.overlap.to_string()),
         ("--seed", options.seed.to_string()),
+        ("--global-aim", options.global_aim.to_string()),
         ("max_bounces", options.max_bounces.to_string()),
         (
             "radius_limits",

@@ -9,6 +9,7 @@ use crate::geometry::differential::{GlassInterface, RayDifferential};
 use crate::geometry::sampling::{sample_cosine, tangent_frame};
 use crate::geometry::surface::{continuation, surface_frame, transfer_to};
 use crate::photons::emission::Emission;
+use crate::photons::targets::DiffuseAim;
 use crate::scene::{Material, Scene};
 use crate::util::rng::Rng;
 use glam::DVec3;
@@ -35,6 +36,7 @@ pub struct DiffuseHit<'a> {
 }
 
 /// Follows light paths through one scene.
+#[derive(Clone)]
 pub struct LightPaths<'a> {
     /// The scene.
     pub scene: &'a Scene,
@@ -47,6 +49,9 @@ pub struct LightPaths<'a> {
     /// Length skipped at the start of rays leaving a surface (see [`continuation`]);
     /// [`Scene::ray_epsilon`], computed once: it walks every vertex.
     pub epsilon: f64,
+    /// Where diffuse bounces are drawn from a mixture aimed at the specular objects (global
+    /// photons); `None` draws them from the cosine lobe alone (the other maps, the reference).
+    pub aim: Option<DiffuseAim>,
 }
 
 /// A light path between two queries: what [`LightPaths::advance`] needs to go on. Paths are
@@ -230,13 +235,33 @@ impl LightPaths<'_> {
                 }
                 state.power *= albedo / q;
                 let n = if frame.n.dot(ng) > 0.0 { frame.n } else { ng };
-                let d = sample_cosine(n, rng.uniform(), rng.uniform());
+                let (d, spread) = match &self.aim {
+                    None => (
+                        sample_cosine(n, rng.uniform(), rng.uniform()),
+                        self.diffuse_spread,
+                    ),
+                    Some(aim) => {
+                        let u = [rng.uniform(), rng.uniform(), rng.uniform()];
+                        let Some(bounce) = aim.sample(at.p, n, u) else {
+                            return false;
+                        };
+                        state.power *= bounce.weight;
+                        // Where the mixture draws more densely than the cosine lobe does on
+                        // average (1 / (2 pi) per steradian), the photons' beams are narrower
+                        // in proportion, as emission differentials are for a denser emission.
+                        let denser = bounce.pdf * (2.0 * std::f64::consts::PI);
+                        (
+                            bounce.direction,
+                            self.diffuse_spread / denser.max(1.0).sqrt(),
+                        )
+                    }
+                };
                 let (t1, t2) = tangent_frame(d);
                 state.ray = RayDifferential {
                     p: at.p,
                     d,
                     dp: at.dp,
-                    dd: [t1 * self.diffuse_spread, t2 * self.diffuse_spread],
+                    dd: [t1 * spread, t2 * spread],
                 };
                 state.diffuse += 1;
                 true

@@ -12,6 +12,7 @@ pub mod footprint_bvh;
 pub mod light_path;
 pub mod map;
 pub mod radiance_map;
+pub mod targets;
 pub mod trace;
 
 use map::PhotonMap;

@@ -13,6 +13,7 @@ use crate::photons::emission::{Emission, Emitter};
 use crate::photons::footprint::{footprint, FootprintLimits, Guards};
 use crate::photons::light_path::{DiffuseHit, LightPaths};
 use crate::photons::map::{PathClass, Photon, PhotonMap};
+use crate::photons::targets::{specular_targets, DiffuseAim};
 use crate::scene::Scene;
 use crate::util::rng::Rng;
 use glam::DVec3;
@@ -44,6 +45,12 @@ pub struct PhotonOptions {
     pub max_anisotropy: f64,
     /// Seed of every random stream. Default 0.
     pub seed: u64,
+    /// Share of the global photons' diffuse bounces aimed at the mirror and glass objects
+    /// (their bounding spheres), the rest drawn from the cosine lobe, with powers weighted by
+    /// the mixture's density ([`crate::photons::targets::DiffuseAim`]): in `[0, 1)`, 0 draws
+    /// every bounce from the cosine lobe. Default 0.15. (The final-gathering map and the
+    /// caustic map, which ends at its first diffuse hit, are not aimed.)
+    pub global_aim: f64,
     /// Whether the global map's photons are stored at every diffuse hit and made into a
     /// radiance map for final gathering ([`crate::photons::radiance_map`]) instead of a photon
     /// map viewed directly. Default false.
@@ -60,6 +67,7 @@ impl Default for PhotonOptions {
             radius_limits: (1e-5, 0.02),
             max_anisotropy: 20.0,
             seed: 0,
+            global_aim: 0.15,
             radiance_map: false,
         }
     }
@@ -113,6 +121,8 @@ pub struct PhotonTracer<'a> {
     /// global photons.
     diffuse_spread: f64,
     paths: LightPaths<'a>,
+    /// As `paths`, with diffuse bounces aimed at the specular objects: for the global map.
+    aimed_paths: LightPaths<'a>,
 }
 
 /// The cap of [`StopRule::Stored`] for the caustic map: emissions per photon asked for.
@@ -164,18 +174,25 @@ impl<'a> PhotonTracer<'a> {
     pub fn new(scene: &'a Scene, embree: &'a embree::Scene, options: &'a PhotonOptions) -> Self {
         let n = options.global_photons.max(1) as f64;
         let diffuse_spread = (options.overlap * 2.0 * PI / (PI * n)).sqrt();
+        let paths = LightPaths {
+            scene,
+            embree,
+            max_bounces: options.max_bounces,
+            diffuse_spread,
+            epsilon: scene.ray_epsilon(),
+            aim: None,
+        };
+        let aimed_paths = LightPaths {
+            aim: DiffuseAim::new(specular_targets(scene), options.global_aim),
+            ..paths.clone()
+        };
         PhotonTracer {
             scene,
             embree,
             options,
             diffuse_spread,
-            paths: LightPaths {
-                scene,
-                embree,
-                max_bounces: options.max_bounces,
-                diffuse_spread,
-                epsilon: scene.ray_epsilon(),
-            },
+            paths,
+            aimed_paths,
         }
     }
 
@@ -189,7 +206,7 @@ impl<'a> PhotonTracer<'a> {
         rng: &mut Rng,
         out: &mut Vec<TracedPhoton>,
     ) -> u64 {
-        self.paths
+        self.paths_for(class)
             .walk(emission, rng, |v| store(class, v, |p| out.push(p)))
     }
 
@@ -205,7 +222,7 @@ impl<'a> PhotonTracer<'a> {
         let mut photons = Vec::new();
         let mut rays = vec![0u32; (range.end - range.start) as usize];
         let mut indices = range.clone();
-        self.paths.walk_packets(
+        self.paths_for(class).walk_packets(
             || {
                 for index in indices.by_ref() {
                     let mut rng = self.stream(class, index);
@@ -306,6 +323,14 @@ impl<'a> PhotonTracer<'a> {
         }
     }
 
+    /// The light paths photons of `class` follow: aimed diffuse bounces for the global map.
+    fn paths_for(&self, class: PathClass) -> &LightPaths<'a> {
+        match class {
+            PathClass::Global => &self.aimed_paths,
+            _ => &self.paths,
+        }
+    }
+
     /// The random stream of emission `index` of the map of `class`.
     fn stream(&self, class: PathClass, index: u64) -> Rng {
         Rng::new(self.options.seed ^ (salt(class) << 56), index)
@@ -324,7 +349,7 @@ impl<'a> PhotonTracer<'a> {
                     rays.push(*q);
                     self.embree.intersect(q)
                 };
-                self.paths
+                self.paths_for(class)
                     .walk_with(e, &mut rng, intersect, |v| store(class, v, |_| ()));
             }
         }

@@ -9,7 +9,10 @@ use crate::photons::PhotonMaps;
 use crate::render::film::Film;
 use crate::render::image::render_image;
 use crate::render::pass_sum::PassSum;
-use crate::render::passes::{Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_PASSES};
+use crate::render::passes::{
+    Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
+    DEFAULT_PASSES,
+};
 use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
 use crate::scene::Scene;
@@ -28,6 +31,9 @@ pub struct Method {
     /// Caustic photons per pass when they differ from the shared maps': every pass then
     /// traces its own maps, pass 0 too, and their tracing counts as rendering time.
     pub caustic_photons: Option<usize>,
+    /// Shadow rays per point or spot light over a directly seen hit's footprint, along each
+    /// axis ([`RenderOptions::footprint_strata`]; 1: the hit alone).
+    pub footprint_strata: u32,
 }
 
 impl Method {
@@ -39,6 +45,7 @@ impl Method {
             ms_grid: 1,
             passes: 1,
             caustic_photons: None,
+            footprint_strata: 1,
         }
     }
     /// Jensen's estimate with `n x n` camera rays per pixel.
@@ -49,6 +56,7 @@ impl Method {
             ms_grid: 1,
             passes: 1,
             caustic_photons: None,
+            footprint_strata: 1,
         }
     }
     /// Coplanar intersection-weighted photon differentials, one camera ray per pixel.
@@ -59,6 +67,7 @@ impl Method {
             ms_grid: 1,
             passes: 1,
             caustic_photons: None,
+            footprint_strata: 1,
         }
     }
     /// Multi-sampled photon differentials with `n x n` sample points, one camera ray per pixel.
@@ -69,6 +78,7 @@ impl Method {
             ms_grid: n,
             passes: 1,
             caustic_photons: None,
+            footprint_strata: 1,
         }
     }
 
@@ -80,6 +90,7 @@ impl Method {
             ms_grid: 1,
             passes: 1,
             caustic_photons: None,
+            footprint_strata: 1,
         }
     }
 
@@ -89,6 +100,7 @@ impl Method {
         Method {
             passes: DEFAULT_PASSES,
             caustic_photons: Some(DEFAULT_CAUSTIC_PHOTONS),
+            footprint_strata: DEFAULT_FOOTPRINT_SHADOW_RAYS,
             ..Self::integrated()
         }
     }
@@ -139,6 +151,7 @@ impl Method {
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
         let options = RenderOptions::default()
             .with_view_grid(self.view_grid)
+            .with_footprint_strata(self.footprint_strata)
             .with_threads(threads);
         let mut stats = Stats::default();
         let own_photons = self

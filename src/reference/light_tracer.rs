@@ -160,6 +160,7 @@ impl<'a> LightTracer<'a> {
                 max_bounces: options.max_bounces,
                 diffuse_spread: 0.0,
                 epsilon,
+                aim: None,
             },
         }
     }

@@ -29,6 +29,8 @@ pub struct DiffuseVertex {
     pub albedo: DVec3,
     /// Which camera sample of the tile this vertex belongs to.
     pub sample: usize,
+    /// Mirror and glass bounces between the camera and this hit (0: seen directly).
+    pub depth: u32,
 }
 
 /// Follows camera paths; shared by all the samples of a tile.
@@ -78,6 +80,7 @@ impl ViewPaths<'_> {
                 weight,
                 albedo,
                 sample,
+                depth,
             }),
             Material::Emitter { radiance: le } => {
                 if d.dot(hit.geometric_normal) < 0.0 {

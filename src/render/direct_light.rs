@@ -1,5 +1,18 @@
 //! Direct light at diffuse hits: shadow rays to point and spot lights, stratified samples on
 //! quad area lights, traced as 16-wide packets.
+//!
+//! A point light's direct light is a point sample of the pixel's integral: at a shadow's edge
+//! the pixel is partly lit and one ray per pass calls it lit or dark, and near a light that
+//! grazes a surface the `I cos / d^2` falloff varies steeply across one pixel. Both converge
+//! only as fast as the camera jitter of the passes. With `footprint_strata = N > 1` a hit seen
+//! directly by the camera sends `N x N` shadow rays instead, from points spread over the
+//! camera ray's footprint on the surface (its position differentials: the cell of the view
+//! grid around the cell's centre, each point at the pass's jitter within its sub-cell, so
+//! that the passes fill the sub-cells as they fill the cell). The points lie in the hit's
+//! tangent plane: exact on flat surfaces, and off a curved one by the footprint's size squared
+//! over the curvature radius. Hits seen through mirrors and glass keep one ray: their
+//! footprints are where the first-order differential is least trustworthy (a caustic's focus,
+//! a grazing refraction).
 
 use crate::embree::{self, Ray, PACKET_WIDTH};
 use crate::geometry::surface::facing;
@@ -25,6 +38,11 @@ pub struct DirectLight<'a> {
     pub embree: &'a embree::Scene,
     /// Samples per quad light per vertex, in a `strata x strata` grid.
     pub area_strata: u32,
+    /// Shadow rays per point or spot light at a vertex seen directly, along each axis, over
+    /// its footprint (see the module documentation); 1 traces from the hit alone.
+    pub footprint_strata: u32,
+    /// The camera jitter of this pass within its cell of the view grid.
+    pub jitter: [f64; 2],
     /// Offset of shadow ray origins off the surface.
     pub epsilon: f64,
 }
@@ -63,9 +81,9 @@ impl DirectLight<'_> {
         } else {
             -v.hit.shading_normal
         };
-        let origin = v.hit.position + ng * self.epsilon;
         let brdf = v.weight * v.albedo * FRAC_1_PI;
-        let mut push = |target: DVec3, radiance_factor: DVec3, tfar_scale: f64| {
+        let mut push = |from: DVec3, target: DVec3, radiance_factor: DVec3, tfar_scale: f64| {
+            let origin = from + ng * self.epsilon;
             let to = target - origin;
             let dist = to.length();
             let w = to / dist;
@@ -79,13 +97,19 @@ impl DirectLight<'_> {
                 sample: v.sample,
             });
         };
+        let grid = self.footprint_grid(v);
+        let share = 1.0 / (grid.n * grid.n) as f64;
+        let x = v.hit.position;
         for light in &self.scene.lights {
             match *light {
                 Light::Point { position, .. } | Light::Spot { position, .. } => {
-                    let w = (origin - position).normalize_or_zero();
-                    let intensity = light.intensity_towards(w);
-                    if intensity != DVec3::ZERO {
-                        push(position, intensity, 1.0);
+                    for k in 0..grid.n * grid.n {
+                        let p = grid.point(k);
+                        let w = (p + ng * self.epsilon - position).normalize_or_zero();
+                        let intensity = light.intensity_towards(w);
+                        if intensity != DVec3::ZERO {
+                            push(p, position, intensity * share, 1.0);
+                        }
                     }
                 }
                 Light::Quad {
@@ -99,6 +123,7 @@ impl DirectLight<'_> {
                     let normal = cross / area;
                     let s = self.area_strata.max(1);
                     let per_sample = area / (s * s) as f64;
+                    let origin = x + ng * self.epsilon;
                     for i in 0..s {
                         for j in 0..s {
                             let a = (i as f64 + rng.uniform()) / s as f64;
@@ -107,12 +132,56 @@ impl DirectLight<'_> {
                             let cos_light = (origin - y).normalize_or_zero().dot(normal);
                             if cos_light > 0.0 {
                                 // Stop short of the light's own quad.
-                                push(y, radiance * (cos_light * per_sample), 1.0 - 1e-4);
+                                push(x, y, radiance * (cos_light * per_sample), 1.0 - 1e-4);
                             }
                         }
                     }
                 }
             }
         }
+    }
+
+    /// Where a vertex's shadow rays to point and spot lights start (see [`FootprintGrid`]).
+    fn footprint_grid(&self, v: &DiffuseVertex) -> FootprintGrid {
+        let n = self.footprint_strata.max(1);
+        let [dp0, dp1] = v.ray.dp;
+        if n == 1 || v.depth > 0 || !(dp0.is_finite() && dp1.is_finite()) {
+            return FootprintGrid {
+                corner: v.hit.position,
+                step: [DVec3::ZERO; 2],
+                n: 1,
+            };
+        }
+        let [jx, jy] = self.jitter;
+        let scale = 1.0 / n as f64;
+        // The cell's centre is the hit moved back by the jitter; point (i, j) is at
+        // `centre + dp0 ((i + jx) / n - 1/2) + dp1 ((j + jy) / n - 1/2)`.
+        let centre = v.hit.position - dp0 * (jx - 0.5) - dp1 * (jy - 0.5);
+        FootprintGrid {
+            corner: centre + dp0 * (jx * scale - 0.5) + dp1 * (jy * scale - 0.5),
+            step: [dp0 * scale, dp1 * scale],
+            n,
+        }
+    }
+}
+
+/// The points a vertex's shadow rays to point and spot lights start from: the hit alone
+/// (`n = 1`), or for a hit seen directly an `n x n` grid over its footprint, the view-grid
+/// cell `c +- dp0/2 +- dp1/2` around the cell's centre `c` split into `n x n` sub-cells, each
+/// point at the pass's jitter within its sub-cell (for `n = 1` that is the hit itself).
+struct FootprintGrid {
+    /// Point `(0, 0)`.
+    corner: DVec3,
+    /// From one point to the next along each axis.
+    step: [DVec3; 2],
+    /// Points along each axis.
+    n: u32,
+}
+
+impl FootprintGrid {
+    /// Point `k` (row-major).
+    fn point(&self, k: u32) -> DVec3 {
+        let (i, j) = ((k % self.n) as f64, (k / self.n) as f64);
+        self.corner + self.step[0] * i + self.step[1] * j
     }
 }

@@ -31,6 +31,10 @@ pub struct RenderOptions {
     pub max_depth: u32,
     /// Area-light samples per diffuse hit, per light, along each axis (stratified). Default 4.
     pub area_strata: u32,
+    /// Shadow rays to each point and spot light at a camera ray's first diffuse hit (seen
+    /// directly, not through a mirror or glass), along each axis: `N x N` points spread over
+    /// the ray's footprint there ([`crate::render::direct_light`]). Default 1 (the hit alone).
+    pub footprint_strata: u32,
     /// Seed of all random streams. Default 0.
     pub seed: u64,
     /// Worker threads; 0 uses every core. Default 0.
@@ -52,6 +56,7 @@ impl Default for RenderOptions {
             view_grid: 1,
             max_depth: 10,
             area_strata: 4,
+            footprint_strata: 1,
             seed: 0,
             threads: 0,
             progress: false,
@@ -75,6 +80,11 @@ impl RenderOptions {
     /// Sets [`RenderOptions::area_strata`].
     pub fn with_area_strata(mut self, strata: u32) -> Self {
         self.area_strata = strata;
+        self
+    }
+    /// Sets [`RenderOptions::footprint_strata`].
+    pub fn with_footprint_strata(mut self, strata: u32) -> Self {
+        self.footprint_strata = strata;
         self
     }
     /// Sets [`RenderOptions::seed`].
@@ -255,6 +265,8 @@ impl<'a> TileRenderer<'a> {
                 scene,
                 embree,
                 area_strata: options.area_strata,
+                footprint_strata: options.footprint_strata,
+                jitter: options.jitter,
                 epsilon,
             },
         }

@@ -51,9 +51,17 @@ pub const DEFAULT_PASSES: u64 = 2;
 
 /// Caustic photons per pass of the default estimator, `integrated` (the others default to the
 /// thesis's 20,000): the default render's caustic error is mostly its photons' noise and the
-/// bias of their footprints, both of which more photons per pass cut at little cost (README,
-/// "The default").
-pub const DEFAULT_CAUSTIC_PHOTONS: usize = 80_000;
+/// bias of their footprints, both of which more photons per pass cut; 70,000 keeps the default
+/// within 3x Regular 1x1's time now that its global map holds aimed photons (README, "The
+/// default").
+pub const DEFAULT_CAUSTIC_PHOTONS: usize = 70_000;
+
+/// Shadow rays per point or spot light, along each axis, over the footprint of a directly seen
+/// hit for the default estimator, `integrated` ([`crate::render::direct_light`]; 1 for the
+/// others): its two passes otherwise sample a pixel's direct light at two points, and at a
+/// shadow's edge, dark and lit within one pixel, that was a large part of the error in the
+/// sphere's shadow (README, "The default").
+pub const DEFAULT_FOOTPRINT_SHADOW_RAYS: u32 = 2;
 
 /// Default `alpha` of the footprint schedule.
 pub const DEFAULT_ALPHA: f64 = 2.0 / 3.0;
