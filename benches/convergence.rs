@@ -11,7 +11,9 @@
 //! against the split reference (`photondiff reference`; cached in `out/reference/`), whose own
 //! noise per region is printed beside: an error below three times it is marked `~`.
 //! Environment: `PHOTONDIFF_BUDGETS` (seconds, comma-separated; default 0.5,1,2,4,8,16,32),
-//! `PHOTONDIFF_REFERENCE_PATHS` (paths per set of the canonical reference, default 2*10^8),
+//! `PHOTONDIFF_REFERENCE_PATHS` (aimed caustic paths of the canonical reference, default
+//! 2*10^8), `PHOTONDIFF_REFERENCE_LIGHT_PATHS` (its isotropic paths, default 2*10^9: they carry
+//! the light in the sphere's shadow, as in `default_render`),
 //! `PHOTONDIFF_STRESS_REFERENCE_PATHS` (default 5*10^7), `PHOTONDIFF_DIRECT_GRIDS` (the
 //! reference's two direct-light grids, default 16,17), `PHOTONDIFF_SCENES` (`canonical`,
 //! `stress` or `all`, default all), `PHOTONDIFF_THREADS` (default all cores).
@@ -183,6 +185,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let threads = env_u64("PHOTONDIFF_THREADS", 0) as usize;
     let which = std::env::var("PHOTONDIFF_SCENES").unwrap_or_else(|_| "all".into());
     let paths = env_u64("PHOTONDIFF_REFERENCE_PATHS", 200_000_000);
+    let light_paths = env_u64("PHOTONDIFF_REFERENCE_LIGHT_PATHS", 2_000_000_000);
     let stress_paths = env_u64("PHOTONDIFF_STRESS_REFERENCE_PATHS", 50_000_000);
     let grids: Vec<u32> = std::env::var("PHOTONDIFF_DIRECT_GRIDS")
         .unwrap_or_else(|_| "16,17".into())
@@ -193,11 +196,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .try_into()
         .map_err(|_| "PHOTONDIFF_DIRECT_GRIDS takes two numbers")?;
     let scenes_dir = root.join("scenes");
-    let mut cases: Vec<(&str, Scene, u64)> = Vec::new();
+    // (name, scene, isotropic light paths, aimed caustic paths) of each reference.
+    let mut cases: Vec<(&str, Scene, u64, u64)> = Vec::new();
     if which == "all" || which == "canonical" {
         cases.push((
             "caustic-sphere",
             load_scene(&scenes_dir.join("caustic-sphere.toml"))?,
+            light_paths,
             paths,
         ));
     }
@@ -210,7 +215,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ] {
             let mut scene = load_scene(&scenes_dir.join(format!("stress/{name}.toml")))?;
             scene.camera = scene.camera.with_resolution(160, 120);
-            cases.push((name, scene, stress_paths));
+            cases.push((name, scene, stress_paths, stress_paths));
         }
     }
     let pool = rayon::ThreadPoolBuilder::new()
@@ -221,11 +226,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut failed = Vec::new();
     plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
         .map_err(|_| "cannot register the embedded font")?;
-    for (name, scene, paths) in &cases {
+    for (name, scene, light_paths, caustic_paths) in &cases {
         let embree = scene.build_embree(&device)?;
         let settings = ReferenceSettings {
-            light_paths: *paths,
-            caustic_paths: *paths,
+            light_paths: *light_paths,
+            caustic_paths: *caustic_paths,
             direct_grids: grids,
         };
         let reference = pool.install(|| {
@@ -287,7 +292,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             scene.camera.width, scene.camera.height
         );
         let reference_note = format!(
-            "Reference: direct light on {}x{0} and {}x{1} rays per pixel plus {paths} + {paths} caustic light paths; its noise (from its halves): {}.",
+            "Reference: direct light on {}x{0} and {}x{1} rays per pixel plus {light_paths} + {caustic_paths} caustic light paths; its noise (from its halves): {}.",
             grids[0],
             grids[1],
             REGIONS

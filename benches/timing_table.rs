@@ -1,8 +1,10 @@
 //! Reproduces the thesis's timing table (METHOD.md section 5) on the canonical scene, with each
 //! row's error against a light-traced reference.
 //!
-//! Run: `cargo bench --bench timing_table`. Environment: `PHOTONDIFF_REFERENCE_PATHS` (light
-//! paths of the reference, default 1,000,000,000; cached under `out/reference/`),
+//! Run: `cargo bench --bench timing_table`. Environment: `PHOTONDIFF_REFERENCE_PATHS` (aimed
+//! caustic paths of the reference, default 2*10^8), `PHOTONDIFF_REFERENCE_LIGHT_PATHS` (its
+//! isotropic paths, default 2*10^9; the reference `default_render` and `convergence` use, cached
+//! under `out/reference/`),
 //! `PHOTONDIFF_REPEATS` (default 3), `PHOTONDIFF_THREADS` (default: all cores).
 //!
 //! Also writes an HTML report of the run (`photondiff report`'s page) to
@@ -39,7 +41,8 @@ fn main() -> Result<(), String> {
     let embree = scene.build_embree(&device).map_err(|e| e.to_string())?;
     let repeats = env("PHOTONDIFF_REPEATS", 3).max(1) as usize;
     let threads = env("PHOTONDIFF_THREADS", 0) as usize;
-    let paths = env("PHOTONDIFF_REFERENCE_PATHS", 1_000_000_000);
+    let paths = env("PHOTONDIFF_REFERENCE_PATHS", 200_000_000);
+    let light_paths = env("PHOTONDIFF_REFERENCE_LIGHT_PATHS", 2_000_000_000);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -52,7 +55,7 @@ fn main() -> Result<(), String> {
             &root.join("out/reference"),
             "caustic-sphere",
             &photondiff::reference::cache::ReferenceSettings {
-                light_paths: paths,
+                light_paths,
                 caustic_paths: paths,
                 ..Default::default()
             },
@@ -111,7 +114,7 @@ fn main() -> Result<(), String> {
     println!("\n## Timing table: canonical scene, 640 x 480, {} global + {} caustic photon differentials\n",
         options.global_photons, options.caustic_photons);
     println!("Photon tracing (shared by every row): {:.3} s (median of {repeats}). Rendering: median of {repeats}, methods alternated, {} threads.", median(trace_times), pool.current_num_threads());
-    println!("Error: relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) against a reference of direct light on 16x16 and 17x17 rays per pixel plus {paths} + {paths} caustic light paths for the rest, over the floor ({} px), the caustic ({} px: reference > 1.5 x unblocked direct light) and its contour ({} px: the tenth of the caustic with the largest reference gradient); SSIM on sRGB luminance over the whole image.", regions.diffuse.len(), regions.caustic.len(), regions.contour.len());
+    println!("Error: relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) against a reference of direct light on 16x16 and 17x17 rays per pixel plus {light_paths} + {paths} caustic light paths for the rest, over the floor ({} px), the caustic ({} px: reference > 1.5 x unblocked direct light) and its contour ({} px: the tenth of the caustic with the largest reference gradient); SSIM on sRGB luminance over the whole image.", regions.diffuse.len(), regions.caustic.len(), regions.contour.len());
     println!("Reference noise (relative, from its two halves): floor {:.4}, caustic {:.4}, contour {:.4}.\n",
         reference.relative_noise(&regions.diffuse), reference.relative_noise(&regions.caustic), reference.relative_noise(&regions.contour));
     let mut table_rows = Vec::new();
@@ -148,7 +151,7 @@ fn main() -> Result<(), String> {
             .map(String::from).to_vec(),
         rows: table_rows,
         notes: vec![format!(
-            "Canonical scene, {} global + {} caustic photons; rendering time: median of {repeats}, methods alternated, {} threads; reference: {paths} light paths.",
+            "Canonical scene, {} global + {} caustic photons; rendering time: median of {repeats}, methods alternated, {} threads; reference: {light_paths} + {paths} caustic light paths.",
             options.global_photons, options.caustic_photons, pool.current_num_threads()
         )],
     };
@@ -156,7 +159,7 @@ fn main() -> Result<(), String> {
     let page = report::write_with_tables(
         &Report {
             title: "Timing table: canonical scene".into(),
-            notes: vec![format!("Reference: direct light on 16x16 and 17x17 rays per pixel plus {paths} + {paths} caustic light paths."), report::REGIONS_NOTE.to_string()],
+            notes: vec![format!("Reference: direct light on 16x16 and 17x17 rays per pixel plus {light_paths} + {paths} caustic light paths."), report::REGIONS_NOTE.to_string()],
             reference: Render { label: "reference".into(), film: reference.film.clone() },
             renders: rows
                 .iter()
