@@ -37,6 +37,7 @@ use photondiff::render::film::Film;
 use photondiff::render::pass_sum::PassSum;
 use photondiff::render::passes::{
     Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
+    DEFAULT_GLOBAL_AIM,
 };
 use photondiff::render::stats::Stats;
 use photondiff::render::RenderOptions;
@@ -95,11 +96,16 @@ fn progressive(
     (reference, regions): (&Reference, &Regions),
 ) -> Result<Points, String> {
     // As `--time-budget` renders each estimate: `integrated` with the default render's caustic
-    // photons per pass and footprint shadow rays, the others with the thesis's settings.
+    // photons per pass, aimed global photons and footprint shadow rays, the others with the
+    // thesis's settings.
     let photons = PhotonOptions {
         caustic_photons: match kind {
             EstimatorKind::Integrated => DEFAULT_CAUSTIC_PHOTONS,
             _ => PhotonOptions::default().caustic_photons,
+        },
+        global_aim: match kind {
+            EstimatorKind::Integrated => DEFAULT_GLOBAL_AIM,
+            _ => PhotonOptions::default().global_aim,
         },
         ..PhotonOptions::default()
     };

@@ -9,7 +9,7 @@ use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::pass_part::write_pass_part;
 use photondiff::render::passes::{
     PassReport, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
-    DEFAULT_PASSES,
+    DEFAULT_GLOBAL_AIM, DEFAULT_PASSES,
 };
 use photondiff::render::stats::Stats;
 use photondiff::render::{
@@ -95,9 +95,10 @@ pub struct RenderArgs {
     /// Share of the global photons' diffuse bounces aimed at the mirror and glass objects
     /// (the rest follow the cosine lobe; powers are weighted so the map's expected value is
     /// unchanged): in [0, 1), 0 aims none. It carries the light that goes floor -> glass ->
-    /// floor in an open scene with many more photons.
-    #[arg(long, value_name = "P", default_value_t = 0.15)]
-    global_aim: f64,
+    /// floor in an open scene with many more photons. Default 0.15 for `integrated` (the
+    /// default estimator), 0 for the others (the thesis's photon maps).
+    #[arg(long, value_name = "P")]
+    global_aim: Option<f64>,
     /// Light paths traced by `--estimator lighttrace`.
     #[arg(long, value_name = "N", default_value_t = 20_000_000)]
     light_paths: u64,
@@ -230,7 +231,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         caustic_photons: caustic_photons(args, kind),
         overlap: args.overlap,
         seed: args.seed,
-        global_aim: args.global_aim,
+        global_aim: global_aim(args, kind),
         radiance_map: args.gather_rays > 0,
         ..PhotonOptions::default()
     };
@@ -258,10 +259,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             args.overlap
         ));
     }
-    if !(0.0..1.0).contains(&args.global_aim) {
+    if !(0.0..1.0).contains(&photon_options.global_aim) {
         return Err(format!(
             "--global-aim must be at least 0 and less than 1, got {}",
-            args.global_aim
+            photon_options.global_aim
         ));
     }
     let settings = EstimatorSettings {
@@ -381,7 +382,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ("photondiff/overlap".to_string(), args.overlap.to_string()),
         (
             "photondiff/global_aim".to_string(),
-            args.global_aim.to_string(),
+            global_aim(args, kind).to_string(),
         ),
         (
             "photondiff/footprint_shadow_rays".to_string(),
@@ -535,6 +536,15 @@ pub(crate) fn warn_shortfalls(scene: &Path, stats: &photondiff::render::stats::S
             }
         }
     }
+}
+
+/// `--global-aim`, or its default for `kind`: [`DEFAULT_GLOBAL_AIM`] for `integrated` (the
+/// default render), none for the thesis's estimators.
+fn global_aim(args: &RenderArgs, kind: EstimatorKind) -> f64 {
+    args.global_aim.unwrap_or(match kind {
+        EstimatorKind::Integrated => DEFAULT_GLOBAL_AIM,
+        _ => PhotonOptions::default().global_aim,
+    })
 }
 
 /// `--caustic-photons`, or its default for `kind`: more for `integrated`, whose passes make

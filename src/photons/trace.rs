@@ -48,8 +48,9 @@ pub struct PhotonOptions {
     /// Share of the global photons' diffuse bounces aimed at the mirror and glass objects
     /// (their bounding spheres), the rest drawn from the cosine lobe, with powers weighted by
     /// the mixture's density ([`crate::photons::targets::DiffuseAim`]): in `[0, 1)`, 0 draws
-    /// every bounce from the cosine lobe. Default 0.15. (The final-gathering map and the
-    /// caustic map, which ends at its first diffuse hit, are not aimed.)
+    /// every bounce from the cosine lobe. Default 0 (the thesis's photon maps); the default
+    /// render uses [`crate::render::passes::DEFAULT_GLOBAL_AIM`]. (The final-gathering map and
+    /// the caustic map, which ends at its first diffuse hit, are not aimed.)
     pub global_aim: f64,
     /// Whether the global map's photons are stored at every diffuse hit and made into a
     /// radiance map for final gathering ([`crate::photons::radiance_map`]) instead of a photon
@@ -67,7 +68,7 @@ impl Default for PhotonOptions {
             radius_limits: (1e-5, 0.02),
             max_anisotropy: 20.0,
             seed: 0,
-            global_aim: 0.15,
+            global_aim: 0.0,
             radiance_map: false,
         }
     }

@@ -11,7 +11,7 @@ use crate::render::image::render_image;
 use crate::render::pass_sum::PassSum;
 use crate::render::passes::{
     Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
-    DEFAULT_PASSES,
+    DEFAULT_GLOBAL_AIM, DEFAULT_PASSES,
 };
 use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
@@ -34,6 +34,9 @@ pub struct Method {
     /// Shadow rays per point or spot light over a directly seen hit's footprint, along each
     /// axis ([`RenderOptions::footprint_strata`]; 1: the hit alone).
     pub footprint_strata: u32,
+    /// Share of the global photons' diffuse bounces aimed at the specular objects
+    /// ([`PhotonOptions::global_aim`]) in the maps the method traces itself.
+    pub global_aim: f64,
 }
 
 impl Method {
@@ -46,6 +49,7 @@ impl Method {
             passes: 1,
             caustic_photons: None,
             footprint_strata: 1,
+            global_aim: 0.0,
         }
     }
     /// Jensen's estimate with `n x n` camera rays per pixel.
@@ -57,6 +61,7 @@ impl Method {
             passes: 1,
             caustic_photons: None,
             footprint_strata: 1,
+            global_aim: 0.0,
         }
     }
     /// Coplanar intersection-weighted photon differentials, one camera ray per pixel.
@@ -68,6 +73,7 @@ impl Method {
             passes: 1,
             caustic_photons: None,
             footprint_strata: 1,
+            global_aim: 0.0,
         }
     }
     /// Multi-sampled photon differentials with `n x n` sample points, one camera ray per pixel.
@@ -79,6 +85,7 @@ impl Method {
             passes: 1,
             caustic_photons: None,
             footprint_strata: 1,
+            global_aim: 0.0,
         }
     }
 
@@ -91,6 +98,7 @@ impl Method {
             passes: 1,
             caustic_photons: None,
             footprint_strata: 1,
+            global_aim: 0.0,
         }
     }
 
@@ -101,6 +109,7 @@ impl Method {
             passes: DEFAULT_PASSES,
             caustic_photons: Some(DEFAULT_CAUSTIC_PHOTONS),
             footprint_strata: DEFAULT_FOOTPRINT_SHADOW_RAYS,
+            global_aim: DEFAULT_GLOBAL_AIM,
             ..Self::integrated()
         }
     }
@@ -166,6 +175,11 @@ impl Method {
             embree,
             photons: PhotonOptions {
                 caustic_photons: own_photons.unwrap_or(photon_options.caustic_photons),
+                global_aim: if own_photons.is_some() {
+                    self.global_aim
+                } else {
+                    photon_options.global_aim
+                },
                 ..photon_options.clone()
             },
             estimator: settings,
