@@ -37,7 +37,7 @@ use photondiff::render::film::Film;
 use photondiff::render::pass_sum::PassSum;
 use photondiff::render::passes::{
     Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
-    DEFAULT_GLOBAL_AIM,
+    DEFAULT_GLOBAL_AIM, DEFAULT_GLOBAL_PHOTONS,
 };
 use photondiff::render::stats::Stats;
 use photondiff::render::RenderOptions;
@@ -106,6 +106,10 @@ fn progressive(
         global_aim: match kind {
             EstimatorKind::Integrated => DEFAULT_GLOBAL_AIM,
             _ => PhotonOptions::default().global_aim,
+        },
+        global_photons: match kind {
+            EstimatorKind::Integrated => DEFAULT_GLOBAL_PHOTONS,
+            _ => PhotonOptions::default().global_photons,
         },
         ..PhotonOptions::default()
     };

@@ -19,8 +19,9 @@ pub struct PhotonsArgs {
     /// The photon-map file to write.
     #[arg(short = 'o', long = "output", value_name = "MAPS")]
     output: PathBuf,
-    /// Photons stored in the global map (as `render --photons`).
-    #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
+    /// Photons stored in the global map (as `render --photons`; the default is the default
+    /// render's, 50,000: maps for the thesis's estimators take `--photons 100000`).
+    #[arg(long = "photons", value_name = "N", default_value_t = photondiff::render::passes::DEFAULT_GLOBAL_PHOTONS)]
     global_photons: usize,
     /// Photons stored in the caustic map (as `render --caustic-photons`; the default is the
     /// default render's, 70,000: maps for `--estimator pd` and the thesis's other estimators

@@ -9,7 +9,7 @@ use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::pass_part::write_pass_part;
 use photondiff::render::passes::{
     PassReport, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
-    DEFAULT_GLOBAL_AIM, DEFAULT_PASSES,
+    DEFAULT_GLOBAL_AIM, DEFAULT_GLOBAL_PHOTONS, DEFAULT_PASSES,
 };
 use photondiff::render::stats::Stats;
 use photondiff::render::{
@@ -66,10 +66,11 @@ pub struct RenderArgs {
     /// Default: `integrated` with progressive passes (see --passes).
     #[arg(long, value_enum)]
     estimator: Option<EstimatorKind>,
-    /// Photons stored in the global map (indirect light); emission stops at 4 emissions per
-    /// photon asked for, with a warning if fewer were stored.
-    #[arg(long = "photons", value_name = "N", default_value_t = 100_000)]
-    global_photons: usize,
+    /// Photons stored in the global map (indirect light, of each pass); emission stops at 4
+    /// emissions per photon asked for, with a warning if fewer were stored. Default 50,000 for
+    /// `integrated` (the default estimator), 100,000 (the thesis's count) for the others.
+    #[arg(long = "photons", value_name = "N")]
+    global_photons: Option<usize>,
     /// Photons stored in the caustic map (of each pass). Default 70,000 for `integrated` (the
     /// default estimator) and 20,000 (the thesis's count) for the others.
     #[arg(long, value_name = "N")]
@@ -227,7 +228,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         .with_progress(!args.quiet && std::io::stderr().is_terminal())
         .with_window(window);
     let photon_options = PhotonOptions {
-        global_photons: args.global_photons,
+        global_photons: global_photons(args, kind),
         caustic_photons: caustic_photons(args, kind),
         overlap: args.overlap,
         seed: args.seed,
@@ -363,7 +364,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ),
         (
             "photondiff/photons".to_string(),
-            args.global_photons.to_string(),
+            global_photons(args, kind).to_string(),
         ),
         (
             "photondiff/caustic_photons".to_string(),
@@ -536,6 +537,15 @@ pub(crate) fn warn_shortfalls(scene: &Path, stats: &photondiff::render::stats::S
             }
         }
     }
+}
+
+/// `--photons`, or its default for `kind`: [`DEFAULT_GLOBAL_PHOTONS`] for `integrated` (the
+/// default render), the thesis's 100,000 for the others.
+fn global_photons(args: &RenderArgs, kind: EstimatorKind) -> usize {
+    args.global_photons.unwrap_or(match kind {
+        EstimatorKind::Integrated => DEFAULT_GLOBAL_PHOTONS,
+        _ => PhotonOptions::default().global_photons,
+    })
 }
 
 /// `--global-aim`, or its default for `kind`: [`DEFAULT_GLOBAL_AIM`] for `integrated` (the

@@ -95,22 +95,11 @@ impl PhotonMaps {
     }
 
     /// The estimators over both maps (none for [`EstimatorKind::Direct`]).
-    ///
-    /// `integrated` reads the global map with the photon-differential estimate (`pd`): global
-    /// photons are far larger than a pixel (in the canonical scene most are clamped to the
-    /// largest radius, some 30 pixels), where a kernel's mean over the pixel's footprint is its
-    /// value at the centre to within `(pixel / footprint)^2`, and the passes' jitter averages
-    /// the centre over the pixel. Once the aimed bounces filled the map, integrating it exactly
-    /// cost about 7% of the default render's whole process (README, "The default").
     pub fn estimators(&self, settings: &EstimatorSettings) -> Vec<Box<dyn RadianceEstimator + '_>> {
-        let global_kind = match settings.kind {
-            EstimatorKind::Integrated => EstimatorKind::Pd,
-            kind => kind,
-        };
-        [(&self.caustic, settings.kind), (&self.global, global_kind)]
+        [&self.caustic, &self.global]
             .into_iter()
-            .filter_map(|(map, kind)| -> Option<Box<dyn RadianceEstimator>> {
-                Some(match kind {
+            .filter_map(|map| -> Option<Box<dyn RadianceEstimator>> {
+                Some(match settings.kind {
                     EstimatorKind::Direct | EstimatorKind::Lighttrace => return None,
                     EstimatorKind::Jensen => Box::new(JensenEstimate {
                         map,

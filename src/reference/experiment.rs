@@ -11,7 +11,7 @@ use crate::render::image::render_image;
 use crate::render::pass_sum::PassSum;
 use crate::render::passes::{
     Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
-    DEFAULT_GLOBAL_AIM, DEFAULT_PASSES,
+    DEFAULT_GLOBAL_AIM, DEFAULT_GLOBAL_PHOTONS, DEFAULT_PASSES,
 };
 use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
@@ -37,6 +37,9 @@ pub struct Method {
     /// Share of the global photons' diffuse bounces aimed at the specular objects
     /// ([`PhotonOptions::global_aim`]) in the maps the method traces itself.
     pub global_aim: f64,
+    /// Global photons asked for in the maps the method traces itself (`None`: the shared
+    /// maps' count).
+    pub global_photons: Option<usize>,
 }
 
 impl Method {
@@ -50,6 +53,7 @@ impl Method {
             caustic_photons: None,
             footprint_strata: 1,
             global_aim: 0.0,
+            global_photons: None,
         }
     }
     /// Jensen's estimate with `n x n` camera rays per pixel.
@@ -62,6 +66,7 @@ impl Method {
             caustic_photons: None,
             footprint_strata: 1,
             global_aim: 0.0,
+            global_photons: None,
         }
     }
     /// Coplanar intersection-weighted photon differentials, one camera ray per pixel.
@@ -74,6 +79,7 @@ impl Method {
             caustic_photons: None,
             footprint_strata: 1,
             global_aim: 0.0,
+            global_photons: None,
         }
     }
     /// Multi-sampled photon differentials with `n x n` sample points, one camera ray per pixel.
@@ -86,6 +92,7 @@ impl Method {
             caustic_photons: None,
             footprint_strata: 1,
             global_aim: 0.0,
+            global_photons: None,
         }
     }
 
@@ -99,6 +106,7 @@ impl Method {
             caustic_photons: None,
             footprint_strata: 1,
             global_aim: 0.0,
+            global_photons: None,
         }
     }
 
@@ -110,6 +118,7 @@ impl Method {
             caustic_photons: Some(DEFAULT_CAUSTIC_PHOTONS),
             footprint_strata: DEFAULT_FOOTPRINT_SHADOW_RAYS,
             global_aim: DEFAULT_GLOBAL_AIM,
+            global_photons: Some(DEFAULT_GLOBAL_PHOTONS),
             ..Self::integrated()
         }
     }
@@ -179,6 +188,10 @@ impl Method {
                     self.global_aim
                 } else {
                     photon_options.global_aim
+                },
+                global_photons: match (own_photons, self.global_photons) {
+                    (Some(_), Some(n)) => n,
+                    _ => photon_options.global_photons,
                 },
                 ..photon_options.clone()
             },
