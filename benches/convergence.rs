@@ -35,10 +35,7 @@ use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::reference::report::{self, Chart, Render, Report, Table};
 use photondiff::render::film::Film;
 use photondiff::render::pass_sum::PassSum;
-use photondiff::render::passes::{
-    Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
-    DEFAULT_GLOBAL_AIM, DEFAULT_GLOBAL_PHOTONS,
-};
+use photondiff::render::passes::{Progressive, RenderDefaults, DEFAULT_ALPHA};
 use photondiff::render::stats::Stats;
 use photondiff::render::RenderOptions;
 use photondiff::scene::file::load_scene;
@@ -98,21 +95,8 @@ fn progressive(
     // As `--time-budget` renders each estimate: `integrated` with the default render's caustic
     // photons per pass, aimed global photons and footprint shadow rays, the others with the
     // thesis's settings.
-    let photons = PhotonOptions {
-        caustic_photons: match kind {
-            EstimatorKind::Integrated => DEFAULT_CAUSTIC_PHOTONS,
-            _ => PhotonOptions::default().caustic_photons,
-        },
-        global_aim: match kind {
-            EstimatorKind::Integrated => DEFAULT_GLOBAL_AIM,
-            _ => PhotonOptions::default().global_aim,
-        },
-        global_photons: match kind {
-            EstimatorKind::Integrated => DEFAULT_GLOBAL_PHOTONS,
-            _ => PhotonOptions::default().global_photons,
-        },
-        ..PhotonOptions::default()
-    };
+    let defaults = RenderDefaults::for_estimator(kind);
+    let photons = defaults.photons(PhotonOptions::default());
     let estimator = EstimatorSettings {
         kind,
         k: 50,
@@ -128,10 +112,7 @@ fn progressive(
         estimator,
         render: RenderOptions::default()
             .with_view_grid(view_grid)
-            .with_footprint_strata(match kind {
-                EstimatorKind::Integrated => DEFAULT_FOOTPRINT_SHADOW_RAYS,
-                _ => 1,
-            })
+            .with_footprint_strata(defaults.footprint_strata)
             .with_threads(threads),
         alpha: DEFAULT_ALPHA,
     };

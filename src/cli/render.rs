@@ -7,10 +7,7 @@ use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::pass_part::write_pass_part;
-use photondiff::render::passes::{
-    PassReport, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
-    DEFAULT_GLOBAL_AIM, DEFAULT_GLOBAL_PHOTONS, DEFAULT_PASSES,
-};
+use photondiff::render::passes::{PassReport, RenderDefaults, DEFAULT_ALPHA, DEFAULT_PASSES};
 use photondiff::render::stats::Stats;
 use photondiff::render::{
     load_photon_maps, Progressive, RenderOptions, StopRules, TileSplit, Window,
@@ -158,6 +155,7 @@ pub struct RenderArgs {
 /// Runs `photondiff render`.
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     let kind = estimator_kind(args);
+    let defaults = RenderDefaults::for_estimator(kind);
     let stop = stop_rules(args)?;
     let pass_range = super::pass_range::check(
         args.pass_range.as_deref(),
@@ -221,18 +219,18 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         .with_seed(args.seed)
         .with_max_depth(args.max_depth)
         .with_area_strata(args.area_samples)
-        .with_footprint_strata(args.footprint_shadow_rays.unwrap_or(match kind {
-            EstimatorKind::Integrated => DEFAULT_FOOTPRINT_SHADOW_RAYS,
-            _ => 1,
-        }))
+        .with_footprint_strata(
+            args.footprint_shadow_rays
+                .unwrap_or(defaults.footprint_strata),
+        )
         .with_progress(!args.quiet && std::io::stderr().is_terminal())
         .with_window(window);
     let photon_options = PhotonOptions {
-        global_photons: global_photons(args, kind),
-        caustic_photons: caustic_photons(args, kind),
+        global_photons: args.global_photons.unwrap_or(defaults.global_photons),
+        caustic_photons: args.caustic_photons.unwrap_or(defaults.caustic_photons),
         overlap: args.overlap,
         seed: args.seed,
-        global_aim: global_aim(args, kind),
+        global_aim: args.global_aim.unwrap_or(defaults.global_aim),
         radiance_map: args.gather_rays > 0,
         ..PhotonOptions::default()
     };
@@ -301,7 +299,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         let progressive = Progressive {
             scene: &scene,
             embree: &embree,
-            photons: photon_options,
+            photons: photon_options.clone(),
             estimator: settings,
             render: options.clone(),
             alpha: args.alpha,
@@ -364,11 +362,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ),
         (
             "photondiff/photons".to_string(),
-            global_photons(args, kind).to_string(),
+            photon_options.global_photons.to_string(),
         ),
         (
             "photondiff/caustic_photons".to_string(),
-            caustic_photons(args, kind).to_string(),
+            photon_options.caustic_photons.to_string(),
         ),
         ("photondiff/k".to_string(), args.k.to_string()),
         (
@@ -383,7 +381,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ("photondiff/overlap".to_string(), args.overlap.to_string()),
         (
             "photondiff/global_aim".to_string(),
-            global_aim(args, kind).to_string(),
+            photon_options.global_aim.to_string(),
         ),
         (
             "photondiff/footprint_shadow_rays".to_string(),
@@ -537,31 +535,4 @@ pub(crate) fn warn_shortfalls(scene: &Path, stats: &photondiff::render::stats::S
             }
         }
     }
-}
-
-/// `--photons`, or its default for `kind`: [`DEFAULT_GLOBAL_PHOTONS`] for `integrated` (the
-/// default render), the thesis's 100,000 for the others.
-fn global_photons(args: &RenderArgs, kind: EstimatorKind) -> usize {
-    args.global_photons.unwrap_or(match kind {
-        EstimatorKind::Integrated => DEFAULT_GLOBAL_PHOTONS,
-        _ => PhotonOptions::default().global_photons,
-    })
-}
-
-/// `--global-aim`, or its default for `kind`: [`DEFAULT_GLOBAL_AIM`] for `integrated` (the
-/// default render), none for the thesis's estimators.
-fn global_aim(args: &RenderArgs, kind: EstimatorKind) -> f64 {
-    args.global_aim.unwrap_or(match kind {
-        EstimatorKind::Integrated => DEFAULT_GLOBAL_AIM,
-        _ => PhotonOptions::default().global_aim,
-    })
-}
-
-/// `--caustic-photons`, or its default for `kind`: more for `integrated`, whose passes make
-/// the default render ([`DEFAULT_CAUSTIC_PHOTONS`]); the thesis's 20,000 for the others.
-fn caustic_photons(args: &RenderArgs, kind: EstimatorKind) -> usize {
-    args.caustic_photons.unwrap_or(match kind {
-        EstimatorKind::Integrated => DEFAULT_CAUSTIC_PHOTONS,
-        _ => PhotonOptions::default().caustic_photons,
-    })
 }

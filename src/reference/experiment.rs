@@ -9,10 +9,7 @@ use crate::photons::PhotonMaps;
 use crate::render::film::Film;
 use crate::render::image::render_image;
 use crate::render::pass_sum::PassSum;
-use crate::render::passes::{
-    Progressive, DEFAULT_ALPHA, DEFAULT_CAUSTIC_PHOTONS, DEFAULT_FOOTPRINT_SHADOW_RAYS,
-    DEFAULT_GLOBAL_AIM, DEFAULT_GLOBAL_PHOTONS, DEFAULT_PASSES,
-};
+use crate::render::passes::{Progressive, RenderDefaults, DEFAULT_ALPHA, DEFAULT_PASSES};
 use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
 use crate::scene::Scene;
@@ -28,18 +25,10 @@ pub struct Method {
     pub ms_grid: u32,
     /// Progressive passes (1: a single render from the shared photon maps).
     pub passes: u64,
-    /// Caustic photons per pass when they differ from the shared maps': every pass then
-    /// traces its own maps, pass 0 too, and their tracing counts as rendering time.
-    pub caustic_photons: Option<usize>,
-    /// Shadow rays per point or spot light over a directly seen hit's footprint, along each
-    /// axis ([`RenderOptions::footprint_strata`]; 1: the hit alone).
-    pub footprint_strata: u32,
-    /// Share of the global photons' diffuse bounces aimed at the specular objects
-    /// ([`PhotonOptions::global_aim`]) in the maps the method traces itself.
-    pub global_aim: f64,
-    /// Global photons asked for in the maps the method traces itself (`None`: the shared
-    /// maps' count).
-    pub global_photons: Option<usize>,
+    /// The default render's settings (`None`: the shared maps and one shadow ray): when its
+    /// photons differ from the shared maps', every pass traces its own maps, pass 0 too, and
+    /// their tracing counts as rendering time.
+    pub defaults: Option<RenderDefaults>,
 }
 
 impl Method {
@@ -50,10 +39,7 @@ impl Method {
             view_grid: n,
             ms_grid: 1,
             passes: 1,
-            caustic_photons: None,
-            footprint_strata: 1,
-            global_aim: 0.0,
-            global_photons: None,
+            defaults: None,
         }
     }
     /// Jensen's estimate with `n x n` camera rays per pixel.
@@ -63,10 +49,7 @@ impl Method {
             view_grid: n,
             ms_grid: 1,
             passes: 1,
-            caustic_photons: None,
-            footprint_strata: 1,
-            global_aim: 0.0,
-            global_photons: None,
+            defaults: None,
         }
     }
     /// Coplanar intersection-weighted photon differentials, one camera ray per pixel.
@@ -76,10 +59,7 @@ impl Method {
             view_grid: 1,
             ms_grid: 1,
             passes: 1,
-            caustic_photons: None,
-            footprint_strata: 1,
-            global_aim: 0.0,
-            global_photons: None,
+            defaults: None,
         }
     }
     /// Multi-sampled photon differentials with `n x n` sample points, one camera ray per pixel.
@@ -89,10 +69,7 @@ impl Method {
             view_grid: 1,
             ms_grid: n,
             passes: 1,
-            caustic_photons: None,
-            footprint_strata: 1,
-            global_aim: 0.0,
-            global_photons: None,
+            defaults: None,
         }
     }
 
@@ -103,10 +80,7 @@ impl Method {
             view_grid: 1,
             ms_grid: 1,
             passes: 1,
-            caustic_photons: None,
-            footprint_strata: 1,
-            global_aim: 0.0,
-            global_photons: None,
+            defaults: None,
         }
     }
 
@@ -115,10 +89,7 @@ impl Method {
     pub fn integrated_default() -> Self {
         Method {
             passes: DEFAULT_PASSES,
-            caustic_photons: Some(DEFAULT_CAUSTIC_PHOTONS),
-            footprint_strata: DEFAULT_FOOTPRINT_SHADOW_RAYS,
-            global_aim: DEFAULT_GLOBAL_AIM,
-            global_photons: Some(DEFAULT_GLOBAL_PHOTONS),
+            defaults: Some(RenderDefaults::for_estimator(EstimatorKind::Integrated)),
             ..Self::integrated()
         }
     }
@@ -135,8 +106,8 @@ impl Method {
             EstimatorKind::Direct => "Direct light only".to_string(),
             EstimatorKind::Lighttrace => "Light tracing".to_string(),
         };
-        let name = match self.caustic_photons {
-            Some(n) => format!("{name}, {n} caustic photons a pass"),
+        let name = match self.defaults {
+            Some(d) => format!("{name}, {} caustic photons a pass", d.caustic_photons),
             None => name,
         };
         match self.passes {
@@ -169,12 +140,13 @@ impl Method {
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
         let options = RenderOptions::default()
             .with_view_grid(self.view_grid)
-            .with_footprint_strata(self.footprint_strata)
+            .with_footprint_strata(self.defaults.map_or(1, |d| d.footprint_strata))
             .with_threads(threads);
         let mut stats = Stats::default();
         let own_photons = self
-            .caustic_photons
-            .filter(|&n| n != photon_options.caustic_photons);
+            .defaults
+            .map(|d| d.photons(photon_options.clone()))
+            .filter(|own| own != photon_options);
         if self.passes <= 1 && own_photons.is_none() {
             let film = render(scene, embree, &refs, &options, &mut stats)?;
             return Ok((film, stats.seconds("render")));
@@ -182,19 +154,9 @@ impl Method {
         let run = Progressive {
             scene,
             embree,
-            photons: PhotonOptions {
-                caustic_photons: own_photons.unwrap_or(photon_options.caustic_photons),
-                global_aim: if own_photons.is_some() {
-                    self.global_aim
-                } else {
-                    photon_options.global_aim
-                },
-                global_photons: match (own_photons, self.global_photons) {
-                    (Some(_), Some(n)) => n,
-                    _ => photon_options.global_photons,
-                },
-                ..photon_options.clone()
-            },
+            photons: own_photons
+                .clone()
+                .unwrap_or_else(|| photon_options.clone()),
             estimator: settings,
             render: options,
             alpha: DEFAULT_ALPHA,

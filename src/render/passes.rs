@@ -77,6 +77,53 @@ pub const DEFAULT_GLOBAL_PHOTONS: usize = 50_000;
 /// sphere's shadow with some 1,600 photons a pass instead of 250 (README, "Photon maps").
 pub const DEFAULT_GLOBAL_AIM: f64 = 0.15;
 
+/// Where the default render (`integrated`) differs from the thesis's estimators, which keep
+/// `PhotonOptions::default()`'s photons and one shadow ray so that they render as they did.
+/// The command line, the benchmarks and the experiments take their defaults from here.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RenderDefaults {
+    /// Caustic photons per pass.
+    pub caustic_photons: usize,
+    /// Global photons asked for per pass.
+    pub global_photons: usize,
+    /// Share of the global photons' diffuse bounces aimed at the specular objects.
+    pub global_aim: f64,
+    /// Footprint shadow rays per point light, along each axis.
+    pub footprint_strata: u32,
+}
+
+impl RenderDefaults {
+    /// The defaults of a render with `kind`: the default render's for `integrated`, the
+    /// thesis's for the others.
+    pub fn for_estimator(kind: EstimatorKind) -> Self {
+        let thesis = PhotonOptions::default();
+        match kind {
+            EstimatorKind::Integrated => RenderDefaults {
+                caustic_photons: DEFAULT_CAUSTIC_PHOTONS,
+                global_photons: DEFAULT_GLOBAL_PHOTONS,
+                global_aim: DEFAULT_GLOBAL_AIM,
+                footprint_strata: DEFAULT_FOOTPRINT_SHADOW_RAYS,
+            },
+            _ => RenderDefaults {
+                caustic_photons: thesis.caustic_photons,
+                global_photons: thesis.global_photons,
+                global_aim: thesis.global_aim,
+                footprint_strata: 1,
+            },
+        }
+    }
+
+    /// `photons` with these photon counts and aim.
+    pub fn photons(&self, photons: PhotonOptions) -> PhotonOptions {
+        PhotonOptions {
+            caustic_photons: self.caustic_photons,
+            global_photons: self.global_photons,
+            global_aim: self.global_aim,
+            ..photons
+        }
+    }
+}
+
 /// Default `alpha` of the footprint schedule.
 pub const DEFAULT_ALPHA: f64 = 2.0 / 3.0;
 
