@@ -20,7 +20,9 @@
 //! ([`PhotonMap::covering`]), as the multi-sampled estimate does.
 
 use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
-use crate::geometry::disc_integral::{classify, general, Overlap};
+use crate::geometry::disc_integral::{
+    classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
+};
 use crate::photons::map::PhotonMap;
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
@@ -99,7 +101,8 @@ impl ParallelogramBatch {
 }
 
 /// For each parallelogram of `batch`, the mean of `(1 - |u|^2)+` over it by the general formula
-/// ([`general`]), four at a time in SIMD lanes (`f64x4`). `out` gets one mean per parallelogram.
+/// ([`general_one_arc`], or [`general`] where a lane's parallelogram is too large for it), four
+/// at a time in SIMD lanes (`f64x4`). `out` gets one mean per parallelogram.
 pub fn parallelogram_means(batch: &mut ParallelogramBatch, out: &mut Vec<f64>) {
     batch.pad();
     out.clear();
@@ -108,7 +111,7 @@ pub fn parallelogram_means(batch: &mut ParallelogramBatch, out: &mut Vec<f64>) {
     };
     let b = &*batch;
     for k in (0..b.s0.len()).step_by(LANES) {
-        let (integral, area) = general(
+        let args = (
             load(&b.s0, k),
             load(&b.s1, k),
             load(&b.a0, k),
@@ -116,6 +119,13 @@ pub fn parallelogram_means(batch: &mut ParallelogramBatch, out: &mut Vec<f64>) {
             load(&b.b0, k),
             load(&b.b1, k),
         );
+        // One atan2 a lane, or four where a parallelogram is too large for that.
+        let one_arc = takes_one_arc(args.2, args.3, args.4, args.5).simd_ge(f64x4::ZERO);
+        let (integral, area) = if one_arc.all() {
+            general_one_arc(args.0, args.1, args.2, args.3, args.4, args.5)
+        } else {
+            general(args.0, args.1, args.2, args.3, args.4, args.5)
+        };
         out.extend_from_slice(&(integral / area).max(f64x4::ZERO).to_array());
     }
     out.truncate(batch.len);
@@ -125,13 +135,10 @@ pub fn parallelogram_means(batch: &mut ParallelogramBatch, out: &mut Vec<f64>) {
 pub fn parallelogram_means_scalar(batch: &ParallelogramBatch, out: &mut Vec<f64>) {
     out.clear();
     for k in 0..batch.len {
-        let (integral, area) = general(
-            batch.s0[k],
-            batch.s1[k],
-            batch.a0[k],
-            batch.a1[k],
-            batch.b0[k],
-            batch.b1[k],
+        let (integral, area) = general_either(
+            DVec2::new(batch.s0[k], batch.s1[k]),
+            DVec2::new(batch.a0[k], batch.a1[k]),
+            DVec2::new(batch.b0[k], batch.b1[k]),
         );
         out.push((integral / area).max(0.0));
     }

@@ -85,6 +85,8 @@ pub trait Lane:
     fn atan2(self, x: Self) -> Self;
     /// `-self` where `sign` is negative, else `self`.
     fn negate_where_negative(self, sign: Self) -> Self;
+    /// `self` where `test` is positive, else `other`.
+    fn where_positive_else(self, test: Self, other: Self) -> Self;
 }
 
 impl Lane for f64 {
@@ -113,6 +115,13 @@ impl Lane for f64 {
             self
         }
     }
+    fn where_positive_else(self, test: Self, other: Self) -> Self {
+        if test > 0.0 {
+            self
+        } else {
+            other
+        }
+    }
 }
 
 impl Lane for f64x4 {
@@ -137,12 +146,18 @@ impl Lane for f64x4 {
     fn negate_where_negative(self, sign: Self) -> Self {
         sign.simd_lt(f64x4::ZERO).bitselect(-self, self)
     }
+    fn where_positive_else(self, test: Self, other: Self) -> Self {
+        test.simd_gt(f64x4::ZERO).bitselect(self, other)
+    }
 }
 
 /// The flux of `F` through one side of the fan triangle `(0, start, end)` ∩ `D`: the side lies
 /// on the line at signed distance `h` (outward) from the origin and runs over `t in [t0, t1]`.
+/// Returned as the flux through the side's pieces inside `D` and a complex number `(re, im)`
+/// whose argument is the signed angle of its arcs (the pieces outside `D`), which contribute
+/// `arg / 4`.
 #[inline(always)]
-fn side<T: Lane>(h: T, t0: T, t1: T) -> T {
+fn side_parts<T: Lane>(h: T, t0: T, t1: T) -> (T, T, T) {
     let half = T::splat(0.5);
     let quarter = T::splat(0.25);
     let hh = h * h;
@@ -154,15 +169,34 @@ fn side<T: Lane>(h: T, t0: T, t1: T) -> T {
     // The angles of the outside pieces [t0, u0] and [u1, t1], as one complex product.
     let (r1, i1) = (hh + t0 * u0, h * (u0 - t0));
     let (r2, i2) = (hh + u1 * t1, h * (t1 - u1));
-    let arcs = (r1 * i2 + i1 * r2).atan2(r1 * r2 - i1 * i2);
-    line + quarter * arcs
+    (line, r1 * r2 - i1 * i2, r1 * i2 + i1 * r2)
 }
 
-/// `(integral over P ∩ D of (1 - |u|^2), area of P)` by the general formula (see the module
-/// documentation), for `P` of centre `(s0, s1)` and edge vectors `(a0, a1)`, `(b0, b1)` in
-/// either orientation. Needs `a`, `b` of non-zero length and `P` of non-zero area.
+/// The flux of `F` through one side (see [`side_parts`]).
 #[inline(always)]
-pub fn general<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T, T) {
+fn side<T: Lane>(h: T, t0: T, t1: T) -> T {
+    let (line, re, im) = side_parts(h, t0, t1);
+    line + T::splat(0.25) * im.atan2(re)
+}
+
+/// `z`, or `1` where `|re| + |im| < 1e-75`. Such a side's line runs through the origin (`h`
+/// about 0) with an end there: its outside pieces lie along rays from the origin and their
+/// angle is 0 (to about `h`, below 1e-37), while a factor that small would drive the product
+/// of four towards underflow, or make it exactly 0 (whose `atan2` would lose every side's
+/// arcs). At most the two sides at one vertex can be that small (the others lie at least the
+/// thickened width from the origin).
+#[inline(always)]
+fn nonzero<T: Lane>(re: T, im: T) -> (T, T) {
+    let keep = re.abs() + im.abs() - T::splat(1e-75);
+    (
+        re.where_positive_else(keep, T::splat(1.0)),
+        im.where_positive_else(keep, T::splat(0.0)),
+    )
+}
+
+/// The four sides of `P` as [`side`] takes them, `(h, t0, t1)` each, and `P`'s area.
+#[inline(always)]
+fn sides<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> ([(T, T, T); 4], T) {
     let half = T::splat(0.5);
     let cross = a0 * b1 - a1 * b0;
     let area = cross.abs();
@@ -188,11 +222,89 @@ pub fn general<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T, T) {
     let kb = half * (a0 * tb0 + a1 * tb1);
     let wb = half * area / lb;
     let hb = half * lb;
-    let integral = side(wa + c, g - k - hl, g - k + hl)
-        + side(wa - c, -g - k - hl, -g - k + hl)
-        + side(wb + cb, gb + kb - hb, gb + kb + hb)
-        + side(wb - cb, -gb + kb - hb, -gb + kb + hb);
+    (
+        [
+            (wa + c, g - k - hl, g - k + hl),
+            (wa - c, -g - k - hl, -g - k + hl),
+            (wb + cb, gb + kb - hb, gb + kb + hb),
+            (wb - cb, -gb + kb - hb, -gb + kb + hb),
+        ],
+        area,
+    )
+}
+
+/// `(integral over P ∩ D of (1 - |u|^2), area of P)` by the general formula (see the module
+/// documentation), for `P` of centre `(s0, s1)` and edge vectors `(a0, a1)`, `(b0, b1)` in
+/// either orientation. Needs `a`, `b` of non-zero length and `P` of non-zero area.
+#[inline(always)]
+pub fn general<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T, T) {
+    let ([e0, e1, e2, e3], area) = sides(s0, s1, a0, a1, b0, b1);
+    let integral = side(e0.0, e0.1, e0.2)
+        + side(e1.0, e1.1, e1.2)
+        + side(e2.0, e2.1, e2.2)
+        + side(e3.0, e3.1, e3.2);
     (integral, area)
+}
+
+/// [`general`] with one `atan2` in place of four, for parallelograms of circumradius up to
+/// [`ONE_ARC_MAX_CIRCUMRADIUS`] ([`takes_one_arc`]).
+///
+/// Why it holds: the arcs of all four sides together are the part of the unit circle inside
+/// `P` (the fan's signed arcs cancel outside it), so their angles sum to some `S` in
+/// `[0, 2 pi]`, and the argument `theta` (in `(-pi, pi]`) of the product of the four sides'
+/// complex numbers is `S` up to a turn. Which turn follows from the sides' distances `h`:
+/// - if every `h > 0.9`, `P` holds the disc of radius 0.9 and each side cuts off at most
+///   `2 acos 0.9 = 0.90` of the circle, so `S >= 2 pi - 3.61 = 2.68`: `S = theta` when
+///   `theta >= 1`, else `theta + 2 pi` (`theta` is then at most rounding above 0);
+/// - otherwise one side cuts off at least 0.90, so `S <= 2 pi - 0.90`: `S = theta + 2 pi`
+///   when `theta < -0.5` (`theta` is then at most `-0.90`), else `theta` (`theta >= 0` but for
+///   rounding).
+///
+/// The margins are far beyond rounding. A circumradius below 1 always takes the second case
+/// with `S < pi` (a set of diameter below 2 meets less than half the circle). Factors that
+/// would underflow are set to 1 ([`nonzero`]); the largest factor, about `(3 R)^8` for
+/// circumradius `R`, bounds the circumradius so that the product stays finite.
+#[inline(always)]
+pub fn general_one_arc<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T, T) {
+    let (e, area) = sides(s0, s1, a0, a1, b0, b1);
+    let mut line = T::splat(0.0);
+    let mut min_h = e[0].0;
+    let (mut re, mut im) = (T::splat(1.0), T::splat(0.0));
+    for (h, t0, t1) in e {
+        let (l, r, i) = side_parts(h, t0, t1);
+        let (r, i) = nonzero(r, i);
+        line = line + l;
+        min_h = min_h.min(h);
+        (re, im) = (re * r - im * i, re * i + im * r);
+    }
+    let theta = im.atan2(re);
+    // Positive where a turn is to be added (see above).
+    let turn =
+        (T::splat(1.0) - theta).where_positive_else(min_h - T::splat(0.9), T::splat(-0.5) - theta);
+    let arcs = (theta + T::splat(std::f64::consts::TAU)).where_positive_else(turn, theta);
+    (line + T::splat(0.25) * arcs, area)
+}
+
+/// Parallelograms of circumradius up to this take [`general_one_arc`] (its product of four
+/// complex numbers stays below about `1e60`); larger ones take [`general`].
+pub const ONE_ARC_MAX_CIRCUMRADIUS: f64 = 1e6;
+
+/// Positive where the parallelogram of edge vectors `a`, `b` takes [`general_one_arc`]: its
+/// circumradius, half its longer diagonal, is at most [`ONE_ARC_MAX_CIRCUMRADIUS`].
+#[inline(always)]
+pub fn takes_one_arc<T: Lane>(a0: T, a1: T, b0: T, b1: T) -> T {
+    let (p0, p1, d0, d1) = (a0 + b0, a1 + b1, a0 - b0, a1 - b1);
+    let diagonal2 = (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1);
+    T::splat(4.0 * ONE_ARC_MAX_CIRCUMRADIUS * ONE_ARC_MAX_CIRCUMRADIUS) - diagonal2
+}
+
+/// [`general_one_arc`], or [`general`] where it does not serve, for one parallelogram.
+pub fn general_either(s: DVec2, a: DVec2, b: DVec2) -> (f64, f64) {
+    if takes_one_arc(a.x, a.y, b.x, b.y) >= 0.0 {
+        general_one_arc(s.x, s.y, a.x, a.y, b.x, b.y)
+    } else {
+        general(s.x, s.y, a.x, a.y, b.x, b.y)
+    }
 }
 
 /// What [`classify`] settles for a parallelogram.
@@ -264,13 +376,13 @@ pub fn classify(s: DVec2, a: DVec2, b: DVec2) -> Overlap {
 }
 
 /// The mean of `(1 - |u|^2)+` over the parallelogram of centre `s` and edge vectors `a`, `b`
-/// (for the Epanechnikov kernel multiply by `2 / pi`): [`classify`], then [`general`].
+/// (for the Epanechnikov kernel multiply by `2 / pi`): [`classify`], then [`general_either`].
 pub fn mean(s: DVec2, a: DVec2, b: DVec2) -> f64 {
     match classify(s, a, b) {
         Overlap::None => 0.0,
         Overlap::Mean(m) => m,
         Overlap::General { s, a, b } => {
-            let (integral, area) = general(s.x, s.y, a.x, a.y, b.x, b.y);
+            let (integral, area) = general_either(s, a, b);
             (integral / area).max(0.0)
         }
     }
@@ -301,177 +413,4 @@ fn thickened(a: DVec2, b: DVec2, min_width: f64) -> (DVec2, DVec2) {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, PI};
-
-    fn general_f64(s: DVec2, a: DVec2, b: DVec2) -> f64 {
-        general(s.x, s.y, a.x, a.y, b.x, b.y).0
-    }
-
-    /// Checks the general formula, and the mean with its fast paths, against `expected`.
-    fn check(s: DVec2, a: DVec2, b: DVec2, expected: f64) {
-        let area = a.perp_dot(b).abs();
-        for (s, a, b) in [(s, a, b), (s, b, a), (s, -a, b), (s, a, -b)] {
-            let g = general_f64(s, a, b);
-            assert!((g - expected).abs() < 1e-12, "general {g} vs {expected}");
-            let m = mean(s, a, b) * area;
-            assert!((m - expected).abs() < 1e-12, "mean {m} vs {expected}");
-        }
-    }
-
-    #[test]
-    fn whole_half_quarter_and_no_disc() {
-        let big = |w: f64| (DVec2::new(w, 0.0), DVec2::new(0.0, w));
-        let (a, b) = big(100.0);
-        check(DVec2::ZERO, a, b, FRAC_PI_2);
-        check(DVec2::new(0.0, 50.0), a, b, FRAC_PI_4);
-        check(DVec2::new(50.0, 50.0), a, b, FRAC_PI_4 / 2.0);
-        check(DVec2::new(-51.0, 0.0), a, b, 0.0);
-        // Tangent: the square circumscribing the disc, and a square touching it from outside.
-        let (a, b) = big(2.0);
-        check(DVec2::ZERO, a, b, FRAC_PI_2);
-        check(DVec2::new(2.0, 0.0), a, b, 0.0);
-        check(DVec2::new(2.0, 2.0), a, b, 0.0);
-        // Rotated and sheared, far outside and all around.
-        let (a, b) = (DVec2::new(30.0, 10.0), DVec2::new(-5.0, 40.0));
-        check(DVec2::new(3.0, -2.0), a, b, FRAC_PI_2);
-        check(DVec2::new(300.0, -2.0), a, b, 0.0);
-    }
-
-    #[test]
-    fn a_strip_through_the_disc() {
-        // Integral over |x| < h of (4/3)(1 - x^2)^(3/2).
-        let antiderivative =
-            |x: f64| (x * (5.0 - 2.0 * x * x) * (1.0 - x * x).sqrt() + 3.0 * x.asin()) / 8.0;
-        for h in [0.01, 0.3, 0.7, 0.999, 1.0] {
-            let expected = 4.0 / 3.0 * 2.0 * antiderivative(h);
-            check(
-                DVec2::ZERO,
-                DVec2::new(2.0 * h, 0.0),
-                DVec2::new(0.0, 5.0),
-                expected,
-            );
-            // The same strip, rotated.
-            let r = DVec2::from_angle(0.7);
-            check(
-                DVec2::ZERO,
-                r.rotate(DVec2::new(2.0 * h, 0.0)),
-                r.rotate(DVec2::new(0.0, 5.0)),
-                expected,
-            );
-        }
-        assert!((4.0 / 3.0 * 2.0 * antiderivative(1.0) - FRAC_PI_2).abs() < 1e-15);
-    }
-
-    #[test]
-    fn inside_the_disc_the_polygon_moments_hold() {
-        let (s, a, b) = (
-            DVec2::new(0.2, -0.1),
-            DVec2::new(0.3, 0.1),
-            DVec2::new(-0.2, 0.4),
-        );
-        let area = a.perp_dot(b).abs();
-        let expected =
-            area * (1.0 - s.length_squared() - (a.length_squared() + b.length_squared()) / 12.0);
-        assert!(matches!(classify(s, a, b), Overlap::Mean(_)));
-        check(s, a, b, expected);
-    }
-
-    #[test]
-    fn closed_forms_and_general_formula_agree_at_their_boundaries() {
-        // Parallelograms just inside (closed form) and just crossing (general formula).
-        for scale in [0.999, 1.001] {
-            let r = DVec2::from_angle(0.3);
-            let (a, b) = (
-                r.rotate(DVec2::new(1.2, 0.0)),
-                r.rotate(DVec2::new(0.0, 0.8)) * scale,
-            );
-            let s = DVec2::new(0.0, 0.0);
-            let g = general_f64(s, a, b) / a.perp_dot(b).abs();
-            assert!(
-                (mean(s, a, b) - g).abs() < 1e-13,
-                "{} vs {g}",
-                mean(s, a, b)
-            );
-        }
-        let m_in = mean(
-            DVec2::ZERO,
-            DVec2::new(1.2, 0.0),
-            DVec2::new(0.0, 1.6 * 0.9999),
-        );
-        let m_out = mean(
-            DVec2::ZERO,
-            DVec2::new(1.2, 0.0),
-            DVec2::new(0.0, 1.6 * 1.0001),
-        );
-        assert!((m_in - m_out).abs() < 1e-3, "{m_in} {m_out}");
-    }
-
-    #[test]
-    fn vanishing_and_flat_parallelograms() {
-        let s = DVec2::new(0.3, 0.4);
-        // Below the point size: the kernel at the centre, exactly.
-        assert_eq!(mean(s, DVec2::ZERO, DVec2::ZERO), 1.0 - s.length_squared());
-        assert_eq!(
-            mean(s, DVec2::new(1e-7, 0.0), DVec2::new(0.0, 1e-7)),
-            1.0 - s.length_squared()
-        );
-        assert_eq!(mean(DVec2::new(1.0, 0.0), DVec2::ZERO, DVec2::ZERO), 0.0);
-        // A segment through the rim: the mean along it, (1/L) integral of (1 - x^2) over
-        // [0.5, 1] for the segment [0.5, 1.5] on the x axis.
-        let expected = (0.5 - (1.0 - 0.125) / 3.0) / 1.0;
-        for (a, b) in [
-            (DVec2::new(1.0, 0.0), DVec2::ZERO),
-            (DVec2::ZERO, DVec2::new(1.0, 0.0)),
-        ] {
-            let m = mean(DVec2::new(1.0, 0.0), a, b);
-            assert!((m - expected).abs() < 1e-4, "{m} vs {expected}");
-            assert!(m.is_finite());
-        }
-        // Non-finite footprints contribute nothing.
-        assert_eq!(mean(s, DVec2::NAN, DVec2::ZERO), 0.0);
-        assert_eq!(mean(s, DVec2::INFINITY, DVec2::X), 0.0);
-    }
-
-    #[test]
-    fn simd_lanes_equal_the_scalar_formula() {
-        let cases = [
-            (
-                DVec2::new(0.9, 0.1),
-                DVec2::new(0.5, 0.1),
-                DVec2::new(-0.1, 0.7),
-            ),
-            (
-                DVec2::new(-1.2, 0.3),
-                DVec2::new(2.0, 0.0),
-                DVec2::new(0.3, 3.0),
-            ),
-            (
-                DVec2::new(0.0, 0.0),
-                DVec2::new(5.0, 1.0),
-                DVec2::new(-1.0, 6.0),
-            ),
-            (
-                DVec2::new(2.5, 2.5),
-                DVec2::new(1.0, 0.0),
-                DVec2::new(0.0, 1.0),
-            ),
-        ];
-        let lanes = |f: fn(&(DVec2, DVec2, DVec2)) -> f64| f64x4::from(cases.map(|c| f(&c)));
-        let (integral, area) = general(
-            lanes(|c| c.0.x),
-            lanes(|c| c.0.y),
-            lanes(|c| c.1.x),
-            lanes(|c| c.1.y),
-            lanes(|c| c.2.x),
-            lanes(|c| c.2.y),
-        );
-        for (k, (s, a, b)) in cases.iter().enumerate() {
-            let (i, ar) = general(s.x, s.y, a.x, a.y, b.x, b.y);
-            assert!((integral.to_array()[k] - i).abs() < 1e-14, "{k}");
-            assert_eq!(area.to_array()[k], ar);
-        }
-        assert!((integral.to_array()[2] - PI / 2.0).abs() < 1e-14);
-    }
-}
+mod tests;
