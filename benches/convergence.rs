@@ -104,6 +104,7 @@ fn progressive(
         ms_grid: 8,
         ellipse_vertices: 16,
         gather_rays: 0,
+        gather_near: 0.0,
     };
     let run = Progressive {
         scene,

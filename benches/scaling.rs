@@ -170,6 +170,7 @@ fn photons_sweep() {
             ms_grid: 8,
             ellipse_vertices: 16,
             gather_rays: 0,
+            gather_near: 0.0,
         };
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();

@@ -114,6 +114,58 @@ fn a_closed_sphere_reflects_e0_over_one_minus_rho() {
     }
 }
 
+/// Gather rays traced a bounce further (`--gather-near`) compute the light leaving their hit
+/// from shadow rays, the caustic map and gather rays of their own instead of the radiance map:
+/// with every ray doing so (`--gather-near 1000`), and with none (`0`), the closed sphere must
+/// still reflect `E0 / (1 - rho)`, and the statistics must say which happened.
+#[test]
+fn gather_rays_traced_a_bounce_further_keep_the_closed_sphere_right() {
+    let dir = tempfile::tempdir().unwrap();
+    let stats = dir.path().join("stats.json");
+    let stats_arg = stats.to_str().unwrap();
+    for rho in [0.5, 0.8] {
+        let expected = rho / std::f64::consts::PI / (1.0 - rho);
+        let scene = closed_sphere(rho);
+        for near in ["1000", "0"] {
+            let (ok, stderr, film) = render(
+                dir.path(),
+                &scene,
+                &[
+                    "--estimator",
+                    "pd",
+                    "--photons",
+                    "100000",
+                    "--gather-rays",
+                    "32",
+                    "--gather-near",
+                    near,
+                    "--stats-json",
+                    stats_arg,
+                ],
+            );
+            assert!(ok, "{stderr}");
+            let gathered = mean(&film.unwrap());
+            eprintln!("rho {rho}, --gather-near {near}: {gathered:.5}, expected {expected:.5}");
+            assert!(
+                (gathered / expected - 1.0).abs() <= 0.02,
+                "rho {rho}, --gather-near {near}: {gathered}, expected {expected}"
+            );
+            let json: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+            let count = |k: &str| json["gathers"][k].as_u64().unwrap();
+            let first_level = count("final_gathers") * 32;
+            if near == "0" {
+                assert_eq!(count("near_gathers"), 0);
+            } else {
+                // Every first-level ray meets the wall (the sphere is closed) and goes further.
+                assert_eq!(count("near_gathers"), first_level);
+                // Each its own ray and the two rays of the bounce further.
+                assert_eq!(count("gather_rays"), 3 * first_level);
+            }
+        }
+    }
+}
+
 #[test]
 fn bad_gather_settings_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
@@ -130,6 +182,20 @@ fn bad_gather_settings_are_clear_errors() {
         stderr.contains("invalid value '-1' for '--gather-rays <N>'"),
         "{stderr}"
     );
+    for bad in ["-1", "NaN", "1000.5"] {
+        let (ok, stderr, _) = render(
+            dir.path(),
+            &scene,
+            &["--gather-rays", "4", &format!("--gather-near={bad}")],
+        );
+        assert!(!ok);
+        assert_eq!(
+            stderr.trim(),
+            format!(
+                "photondiff: error: --gather-near must be at least 0 and at most 1000, got {bad}"
+            )
+        );
+    }
     let (ok, stderr, _) = render(
         dir.path(),
         &scene,

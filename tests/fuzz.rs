@@ -141,6 +141,7 @@ fn load_and_render(text: &str) -> bool {
             ms_grid: 2,
             ellipse_vertices: 8,
             gather_rays: 0,
+            gather_near: 0.0,
         };
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();

@@ -398,6 +398,7 @@ fn the_image_is_multisampling_in_the_limit() {
             ms_grid,
             ellipse_vertices: 16,
             gather_rays: 0,
+            gather_near: 0.0,
         };
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();

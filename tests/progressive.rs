@@ -31,6 +31,7 @@ fn settings(kind: EstimatorKind, scene: &Scene, photons: &PhotonOptions) -> Esti
         ms_grid: 4,
         ellipse_vertices: 16,
         gather_rays: 0,
+        gather_near: 0.0,
     }
 }
 

@@ -2,7 +2,7 @@
 
 use super::create_parent;
 use photondiff::embree::{BvhQuality, BvhSettings, Device};
-use photondiff::estimate::final_gather::MAX_GATHER_RAYS;
+use photondiff::estimate::final_gather::{MAX_GATHER_RAYS, MAX_NEAR_REACH, NEAR_REACH};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
@@ -78,6 +78,12 @@ pub struct RenderArgs {
     /// 0 views the global map directly. At most 4096.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=MAX_GATHER_RAYS as i64))]
     gather_rays: u32,
+    /// Final gathering: a gather ray whose path to its diffuse hit is shorter than R radii of
+    /// the radiance map's photon disc there (where that disc's blur, at an edge or in a
+    /// corner, fills much of the hemisphere) goes a bounce further: direct light by shadow
+    /// rays, caustics and two gather rays of its own at the hit. 0 never; at most 1000.
+    #[arg(long, value_name = "R", default_value_t = NEAR_REACH)]
+    gather_near: f64,
     /// Nearest photons per regular (jensen) estimate.
     #[arg(long, value_name = "N", default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=10_000))]
     k: u32,
@@ -258,6 +264,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             args.overlap
         ));
     }
+    if !(0.0..=MAX_NEAR_REACH).contains(&args.gather_near) {
+        return Err(format!(
+            "--gather-near must be at least 0 and at most {MAX_NEAR_REACH}, got {}",
+            args.gather_near
+        ));
+    }
     if !(0.0..1.0).contains(&photon_options.global_aim) {
         return Err(format!(
             "--global-aim must be at least 0 and less than 1, got {}",
@@ -271,6 +283,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ms_grid: args.ms_grid,
         ellipse_vertices: args.coplanar_vertices as usize,
         gather_rays: args.gather_rays,
+        gather_near: args.gather_near,
     };
     let film = if kind == EstimatorKind::Lighttrace {
         let lt_options = LightTraceOptions {
@@ -372,6 +385,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         (
             "photondiff/gather_rays".to_string(),
             args.gather_rays.to_string(),
+        ),
+        (
+            "photondiff/gather_near".to_string(),
+            args.gather_near.to_string(),
         ),
         ("photondiff/ms_grid".to_string(), args.ms_grid.to_string()),
         (

@@ -54,6 +54,8 @@ pub struct GatherCounts {
     pub final_gathers: u64,
     /// Rays traced by final gathering (each segment through mirrors and glass counts).
     pub gather_rays: u64,
+    /// Gather rays that landed close by and went a bounce further (`--gather-near`).
+    pub near_gathers: u64,
 }
 
 impl GatherCounts {
@@ -64,6 +66,7 @@ impl GatherCounts {
         self.photons_used += other.photons_used;
         self.final_gathers += other.final_gathers;
         self.gather_rays += other.gather_rays;
+        self.near_gathers += other.near_gathers;
     }
 }
 

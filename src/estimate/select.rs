@@ -1,6 +1,7 @@
 //! The estimator the rendering loop calls at diffuse hits, as the command line names it, over
 //! the photon maps.
 
+use super::final_gather::{DirectAt, NearGather, NEAR_RAYS};
 use super::{
     CoplanarEstimate, FinalGather, IntegratedEstimate, JensenEstimate, MultiSampledEstimate,
     PhotonDifferentialEstimate, RadianceEstimator,
@@ -47,6 +48,9 @@ pub struct EstimatorSettings {
     /// Final-gather rays per diffuse hit (0: the global map is seen directly). With final
     /// gathering the photon maps must hold a radiance map.
     pub gather_rays: u32,
+    /// Final gathering: a gather ray whose path to its diffuse hit is shorter than this many
+    /// radii of the radiance map's disc there goes a bounce further (`--gather-near`; 0 never).
+    pub gather_near: f64,
 }
 
 /// What final gathering traces its rays through, besides the maps.
@@ -60,6 +64,9 @@ pub struct GatherScene<'a> {
     pub max_depth: u32,
     /// Seed of the gather directions (the render's).
     pub seed: u64,
+    /// Direct light at the hits of gather rays that land close by, which then go a bounce
+    /// further ([`crate::estimate::final_gather::NearGather`]); `None`: they read the map.
+    pub direct: Option<&'a dyn DirectAt>,
 }
 
 // An inherent impl outside `photons`: choosing estimators is this module's concern, and the
@@ -90,6 +97,12 @@ impl PhotonMaps {
             max_depth: at.max_depth,
             seed: at.seed,
             epsilon: at.scene.ray_epsilon(),
+            near: at.direct.map(|direct| NearGather {
+                direct,
+                caustic: &self.caustic,
+                reach: settings.gather_near,
+                rays: NEAR_RAYS,
+            }),
         }));
         Ok(estimators)
     }

@@ -133,26 +133,32 @@ impl RadianceMap {
     /// the nearest point's that faces the same way and lies within its own gather radius;
     /// zero where no photon arrived.
     pub fn radiance(&self, x: DVec3, n: DVec3) -> DVec3 {
-        let Some(tree) = &self.tree else {
-            return DVec3::ZERO;
-        };
+        self.lookup(x, n)
+            .map_or(DVec3::ZERO, |(radiance, _)| radiance)
+    }
+
+    /// [`RadianceMap::radiance`] with the squared radius of the photons its point's estimate
+    /// drew on (the estimate's blur there); `None` where no photon arrived.
+    pub fn lookup(&self, x: DVec3, n: DVec3) -> Option<(DVec3, f64)> {
+        let tree = self.tree.as_ref()?;
         let n = n.as_vec3();
         let at = x.as_vec3().to_array();
         let usable =
             |d2: f32, p: &RadiancePoint| p.normal.dot(n) > MIN_NORMAL_COSINE && d2 <= p.radius2;
+        let found = |p: &RadiancePoint| (p.radiance.as_dvec3(), p.radius2 as f64);
         // The nearest point almost always serves (this is every gather ray's query: a search
         // for several, sorted, within the largest radius of all took 40% of a gathering
         // render); only where it faces the other way or lies too far are the next ones asked.
         let nearest = tree.nearest_one::<SquaredEuclidean>(&at);
         let first = &self.points[nearest.item as usize];
         if usable(nearest.distance, first) {
-            return first.radiance.as_dvec3();
+            return Some(found(first));
         }
         let k = NonZero::new(4).expect("non-zero");
         tree.nearest_n_within::<SquaredEuclidean>(&at, self.largest_radius2, k, true)
             .into_iter()
             .map(|f| (f.distance, &self.points[f.item as usize]))
             .find(|&(d2, p)| usable(d2, p))
-            .map_or(DVec3::ZERO, |(_, p)| p.radiance.as_dvec3())
+            .map(|(_, p)| found(p))
     }
 }

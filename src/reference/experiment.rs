@@ -135,6 +135,7 @@ impl Method {
             ms_grid: self.ms_grid,
             ellipse_vertices: 16,
             gather_rays: 0,
+            gather_near: 0.0,
         };
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();

@@ -15,6 +15,8 @@
 //! a grazing refraction).
 
 use crate::embree::{self, Ray, PACKET_WIDTH};
+use crate::estimate::final_gather::DirectAt;
+use crate::geometry::differential::RayDifferential;
 use crate::geometry::surface::facing;
 use crate::render::camera_path::DiffuseVertex;
 use crate::scene::{Light, Scene};
@@ -162,6 +164,29 @@ impl DirectLight<'_> {
             step: [dp0 * scale, dp1 * scale],
             n,
         }
+    }
+}
+
+// Direct light where final gathering traces a gather ray a bounce further.
+impl DirectAt for DirectLight<'_> {
+    fn reflected(
+        &self,
+        hit: &embree::Hit,
+        ray: &RayDifferential,
+        albedo: DVec3,
+        rng: &mut Rng,
+    ) -> DVec3 {
+        let vertex = DiffuseVertex {
+            hit: *hit,
+            ray: *ray,
+            weight: DVec3::ONE,
+            albedo,
+            sample: 0,
+            depth: 1,
+        };
+        let mut radiance = [DVec3::ZERO];
+        self.add(std::slice::from_ref(&vertex), rng, &mut radiance);
+        radiance[0]
     }
 }
 

@@ -33,6 +33,7 @@ use crate::estimate::{EstimatorKind, EstimatorSettings, RadianceEstimator};
 use crate::geometry::sampling::r2;
 use crate::photons::trace::PhotonOptions;
 use crate::photons::PhotonMaps;
+use crate::render::direct_light::DirectLight;
 use crate::render::image::{render_image, RenderOptions, RenderedImage};
 use crate::render::noise::NoiseEstimate;
 use crate::render::pass_sum::PassSum;
@@ -265,11 +266,22 @@ impl Progressive<'_> {
                 )?,
             }),
         };
+        // Direct light where gather rays land close by: one sample per light (the gather
+        // averages over many such hits).
+        let near_direct = DirectLight {
+            scene: self.scene,
+            embree: self.embree,
+            area_strata: 1,
+            footprint_strata: 1,
+            jitter: [0.5; 2],
+            epsilon: self.scene.ray_epsilon(),
+        };
         let at = GatherScene {
             scene: self.scene,
             embree: self.embree,
             max_depth: render.max_depth,
             seed: render.seed,
+            direct: Some(&near_direct),
         };
         let estimators = match &maps {
             Some(m) => m.estimators_for(&settings, at)?,

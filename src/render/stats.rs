@@ -272,10 +272,11 @@ impl Stats {
         }
         if g.gather_rays > 0 {
             out += &format!(
-                "  final gathering: {} gathers, {} rays ({:.1} per gather)\n",
+                "  final gathering: {} gathers, {} rays ({:.1} per gather), {} gather rays landed close by and went a bounce further\n",
                 g.final_gathers,
                 g.gather_rays,
-                g.gather_rays as f64 / g.final_gathers.max(1) as f64
+                g.gather_rays as f64 / g.final_gathers.max(1) as f64,
+                g.near_gathers
             );
         }
         if self.light_paths > 0 {
