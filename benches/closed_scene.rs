@@ -109,5 +109,41 @@ fn main() -> Result<(), String> {
         }
         println!();
     }
+
+    // Where the last render's error lies: a wall whose error sits in a few pixels has a local
+    // cause (a caustic's focus, an edge), one spread over it a noise or bias of the whole.
+    let (_, _, film) = rows.last().expect("three renders");
+    let width = scene.camera.width as usize;
+    println!("\nThe last render's worst 1% of each wall's pixels: their share of the wall's squared error, and where they lie (the quartiles of their x and y).\n");
+    println!("| wall | share | x quartiles | y quartiles |");
+    println!("|---|---|---|---|");
+    for (geom, px) in &walls {
+        let mut errors: Vec<(f64, usize)> = px
+            .iter()
+            .map(|&i| {
+                (
+                    (film.pixels[i] - reference.film.pixels[i]).length_squared(),
+                    i,
+                )
+            })
+            .collect();
+        errors.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let worst = &errors[..(errors.len() / 100).max(1)];
+        let share =
+            worst.iter().map(|e| e.0).sum::<f64>() / errors.iter().map(|e| e.0).sum::<f64>();
+        let (mut xs, mut ys): (Vec<usize>, Vec<usize>) =
+            worst.iter().map(|e| (e.1 % width, e.1 / width)).unzip();
+        let quartiles = |v: &mut Vec<usize>| {
+            v.sort_unstable();
+            format!("{}-{}", v[v.len() / 4], v[3 * v.len() / 4])
+        };
+        println!(
+            "| {} | {:.1}% | {} | {} |",
+            scene.meshes[*geom as usize].name,
+            100.0 * share,
+            quartiles(&mut xs),
+            quartiles(&mut ys)
+        );
+    }
     Ok(())
 }
