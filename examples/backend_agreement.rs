@@ -4,17 +4,36 @@
 //!
 //!     backend_agreement A.exr B.exr A.stats.json B.stats.json
 //!
-//! Same hits mean the same rays, photons and gathers: the statistics must be equal except for the
-//! timings and the backend's name. photondiff recomputes every hit point, normal and distance in
-//! double precision from the mesh and uses only the triangle Embree names (`Scene::make_hit`), so
-//! the same hits give the same pixels bit for bit: any pixel that differs is reported and fails.
-//! (Embree's own distances, which differ in the last bits between versions, are used only for
-//! rays parallel to a triangle's plane.)
+//! Same hits mean the same rays, photons and gathers: every count in the statistics must be
+//! equal (timings, the backend's name and memory aside). photondiff recomputes every hit point,
+//! normal and distance in double precision from the mesh and uses only the triangle Embree names
+//! (`Scene::make_hit`), so the same hits give the same pixels up to the last bits of `f64`
+//! arithmetic. (Embree's own distances, which differ in the last bits between versions, are
+//! used only for rays parallel to a triangle's plane.)
+//!
+//! Up to the last bits, not bit for bit: on some machines the two builds' `f64` results differ
+//! there (seen 2026-11-24: with `--estimator direct --passes 2` the images were identical and
+//! the noise statistic differed by 2e-13 of itself; in the default render one pixel of 307,200
+//! differed by 3.7e-6 of the mean radiance, and the same binaries of the commit that had passed
+//! here before gave the same), so the check allows what such rounding can do and no more: real
+//! numbers in the statistics within [`STATS_TOLERANCE`] of each other (relative), and at most
+//! [`MAX_PIXELS`] pixels differing by at most [`PIXEL_TOLERANCE`] times the mean radiance. A hit
+//! on another triangle, a shadow ray blocked in one build only, or a photon stored in one only
+//! changes a count, or a pixel by far more.
 
 use photondiff::render::film::Film;
 use serde_json::Value;
 use std::path::Path;
 use std::process::ExitCode;
+
+/// Largest relative difference of real numbers in the statistics.
+const STATS_TOLERANCE: f64 = 1e-9;
+
+/// Largest difference of a pixel's channel, relative to the mean radiance.
+const PIXEL_TOLERANCE: f64 = 1e-5;
+
+/// Most pixels that may differ at all.
+const MAX_PIXELS: usize = 10;
 
 fn stats(path: &str) -> Result<Value, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
@@ -53,6 +72,16 @@ fn differences(prefix: &str, a: &Value, b: &Value, out: &mut Vec<String>) {
         (Value::Array(x), Value::Array(y)) if x.len() == y.len() => {
             for (i, (u, v)) in x.iter().zip(y).enumerate() {
                 differences(&format!("{prefix}/{i}"), u, v, out);
+            }
+        }
+        // Real numbers (not counts) may differ in their last bits.
+        (Value::Number(x), Value::Number(y)) if !(x.is_u64() && y.is_u64()) => {
+            let (u, v) = (
+                x.as_f64().unwrap_or(f64::NAN),
+                y.as_f64().unwrap_or(f64::NAN),
+            );
+            if !((u - v).abs() <= STATS_TOLERANCE * u.abs().max(v.abs())) {
+                out.push(format!("{prefix}: {a} != {b}"));
             }
         }
         _ if a != b => out.push(format!("{prefix}: {a} != {b}")),
@@ -102,10 +131,15 @@ fn run(args: &[String]) -> Result<(), String> {
             fb.pixels[i].to_array()
         );
     }
-    if diffs.is_empty() && differing.is_empty() {
+    let pixels_agree = differing.len() <= MAX_PIXELS && max_diff <= PIXEL_TOLERANCE * mean;
+    if diffs.is_empty() && pixels_agree {
         Ok(())
     } else {
-        Err("the two backends' renders disagree".into())
+        Err(format!(
+            "the two backends' renders disagree (allowed: statistics' real numbers within \
+             {STATS_TOLERANCE:e} of each other, at most {MAX_PIXELS} pixels within \
+             {PIXEL_TOLERANCE:e} of the mean radiance)"
+        ))
     }
 }
 
