@@ -80,7 +80,9 @@ fn differences(prefix: &str, a: &Value, b: &Value, out: &mut Vec<String>) {
                 x.as_f64().unwrap_or(f64::NAN),
                 y.as_f64().unwrap_or(f64::NAN),
             );
-            if !((u - v).abs() <= STATS_TOLERANCE * u.abs().max(v.abs())) {
+            // False for NaN too.
+            let close = (u - v).abs() <= STATS_TOLERANCE * u.abs().max(v.abs());
+            if !close {
                 out.push(format!("{prefix}: {a} != {b}"));
             }
         }
