@@ -77,7 +77,8 @@ pub struct NearGather<'a> {
     /// The caustic map, for caustics at their hits (the photon-differential point estimate).
     pub caustic: &'a PhotonMap,
     /// A gather ray goes a bounce further where its path to the diffuse hit is shorter than
-    /// this many radii of the radiance map's disc there; 0 never.
+    /// this many radii of the radiance map's disc there (positive: `--gather-near 0` leaves
+    /// [`FinalGather::near`] empty).
     pub reach: f64,
     /// Gather rays of the bounce further (at least 1; they read the radiance map).
     pub rays: u32,
@@ -99,7 +100,8 @@ pub struct FinalGather<'a> {
     pub seed: u64,
     /// Length skipped at the start of rays leaving a surface.
     pub epsilon: f64,
-    /// Gather rays that land close by go a bounce further; `None`: every one reads the map.
+    /// Gather rays that land close by go a bounce further; `None` (`--gather-near 0`): every
+    /// one reads the map.
     pub near: Option<NearGather<'a>>,
 }
 
@@ -123,7 +125,8 @@ impl FinalGather<'_> {
             let Some(hit) = self.embree.intersect(&continuation(&ray, self.epsilon)) else {
                 return DVec3::ZERO;
             };
-            length += (hit.position - ray.p).length();
+            // The ray starts at `ray.p` (its offset is `tnear`): `t` is the segment's length.
+            length += hit.t;
             let at_hit = transfer_to(&ray, &hit);
             let (frame, _) = surface_frame(&hit, &at_hit);
             match *self.scene.material(hit.geom_id) {

@@ -65,8 +65,8 @@ pub struct GatherScene<'a> {
     /// Seed of the gather directions (the render's).
     pub seed: u64,
     /// Direct light at the hits of gather rays that land close by, which then go a bounce
-    /// further ([`crate::estimate::final_gather::NearGather`]); `None`: they read the map.
-    pub direct: Option<&'a dyn DirectAt>,
+    /// further ([`crate::estimate::final_gather::NearGather`]).
+    pub direct: &'a dyn DirectAt,
 }
 
 // An inherent impl outside `photons`: choosing estimators is this module's concern, and the
@@ -97,8 +97,8 @@ impl PhotonMaps {
             max_depth: at.max_depth,
             seed: at.seed,
             epsilon: at.scene.ray_epsilon(),
-            near: at.direct.map(|direct| NearGather {
-                direct,
+            near: (settings.gather_near > 0.0).then_some(NearGather {
+                direct: at.direct,
                 caustic: &self.caustic,
                 reach: settings.gather_near,
                 rays: NEAR_RAYS,

@@ -28,12 +28,9 @@ const MIN_EDGE_SQUARED: f32 = 1e-30;
 /// `s`'s direction (the bounding circle), nor along either edge's normal (separating axes).
 /// Exact in `M` (no assumption on its rows); a small slack covers rounding.
 ///
-/// Written without divisions or square roots, as the SIMD test is, so that both give the same
-/// answer (and because three square roots were most of the test's latency): the circle test
-/// `|s| > B + R` (`B = 1 + SLACK`, `R` the parallelogram's circumradius) is
-/// `x = |s|^2 - B^2 - R^2 > 0` and `x^2 > 4 B^2 R^2`; the axis test along edge `e` (other edge
-/// `o`), `|perp(e) s| > |e| B + |perp(e) o| / 2`, is `y = |perp(e) s| - |perp(e) o| / 2 > 0`
-/// and `y^2 > |e|^2 B^2`.
+/// Written without divisions or square roots but one, as the SIMD test is, so that both give
+/// the same answer: the circle test compares squares, and the axis test along edge `e` (other
+/// edge `o`), `|perp(e) s| / |e| > 1 + |perp(e) o| / (2 |e|)`, is multiplied through by `|e|`.
 #[inline]
 pub fn may_cover(p: &Photon, v: Vec3, f: [Vec3; 2]) -> bool {
     if p.normal.dot(v).abs() > OFF_PLANE_TOLERANCE * p.radius {
@@ -42,26 +39,26 @@ pub fn may_cover(p: &Photon, v: Vec3, f: [Vec3; 2]) -> bool {
     let s = Vec2::new(p.m[0].dot(v), p.m[1].dot(v));
     let a = Vec2::new(p.m[0].dot(f[0]), p.m[1].dot(f[0]));
     let b = Vec2::new(p.m[0].dot(f[1]), p.m[1].dot(f[1]));
-    let (p0, p1) = (a.x + b.x, a.y + b.y);
-    let (d0, d1) = (a.x - b.x, a.y - b.y);
-    let r2 = 0.25 * (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1);
-    let x = (s.x * s.x + s.y * s.y) - BOUND2 - r2;
-    if x > 0.0 && x * x > 4.0 * BOUND2 * r2 {
+    let reach = 0.5
+        * (a + b)
+            .length_squared()
+            .max((a - b).length_squared())
+            .sqrt();
+    let bound = 1.0 + reach + SLACK;
+    if s.length_squared() > bound * bound {
         return false;
     }
-    let cross = (a.x * b.y - a.y * b.x).abs();
+    let cross = (a.perp_dot(b)).abs();
     for e in [a, b] {
-        let len2 = e.x * e.x + e.y * e.y;
-        let y = (e.x * s.y - e.y * s.x).abs() - 0.5 * cross;
-        if len2 > MIN_EDGE_SQUARED && y > 0.0 && y * y > len2 * BOUND2 {
+        let len2 = e.length_squared();
+        if len2 > MIN_EDGE_SQUARED
+            && e.perp_dot(s).abs() > len2.sqrt() * (1.0 + SLACK) + 0.5 * cross
+        {
             return false;
         }
     }
     true
 }
-
-/// `(1 + SLACK)^2`: the kernel's support, a unit disc, grown by the rounding slack.
-const BOUND2: f32 = (1.0 + SLACK) * (1.0 + SLACK);
 
 /// What [`may_cover`] reads of each photon, as a structure of arrays in the photon map's order
 /// (the footprint BVH's leaf slots), padded so that four lanes load from any slot.
@@ -137,18 +134,16 @@ impl CoverTable {
         let b = [dot(&m0, &q.f[1]), dot(&m1, &q.f[1])];
         let (p0, p1) = (a[0] + b[0], a[1] + b[1]);
         let (d0, d1) = (a[0] - b[0], a[1] - b[1]);
-        let r2 = f32x4::splat(0.25) * (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1);
-        let bound2 = f32x4::splat(BOUND2);
-        let x = (s[0] * s[0] + s[1] * s[1]) - bound2 - r2;
-        reject |= x.simd_gt(f32x4::ZERO) & (x * x).simd_gt(f32x4::splat(4.0 * BOUND2) * r2);
+        let reach = f32x4::splat(0.5) * (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1).sqrt();
+        let bound = f32x4::ONE + reach + f32x4::splat(SLACK);
+        reject |= (s[0] * s[0] + s[1] * s[1]).simd_gt(bound * bound);
         // perp_dot(x, y) = x0 y1 - x1 y0.
         let cross = (a[0] * b[1] - a[1] * b[0]).abs();
         for e in [a, b] {
             let len2 = e[0] * e[0] + e[1] * e[1];
-            let y = (e[0] * s[1] - e[1] * s[0]).abs() - f32x4::splat(0.5) * cross;
-            reject |= len2.simd_gt(f32x4::splat(MIN_EDGE_SQUARED))
-                & y.simd_gt(f32x4::ZERO)
-                & (y * y).simd_gt(len2 * bound2);
+            let across = (e[0] * s[1] - e[1] * s[0]).abs();
+            let limit = len2.sqrt() * f32x4::splat(1.0 + SLACK) + f32x4::splat(0.5) * cross;
+            reject |= len2.simd_gt(f32x4::splat(MIN_EDGE_SQUARED)) & across.simd_gt(limit);
         }
         // Lanes past the leaf are padding.
         let lane = f32x4::from([0.0, 1.0, 2.0, 3.0]);

@@ -130,15 +130,9 @@ impl RadianceMap {
     }
 
     /// Radiance leaving the diffuse surface at `x` (normal `n`, facing the side looked from):
-    /// the nearest point's that faces the same way and lies within its own gather radius;
-    /// zero where no photon arrived.
-    pub fn radiance(&self, x: DVec3, n: DVec3) -> DVec3 {
-        self.lookup(x, n)
-            .map_or(DVec3::ZERO, |(radiance, _)| radiance)
-    }
-
-    /// [`RadianceMap::radiance`] with the squared radius of the photons its point's estimate
-    /// drew on (the estimate's blur there); `None` where no photon arrived.
+    /// the nearest point's that faces the same way and lies within its own gather radius, with
+    /// the squared radius of the photons its estimate drew on (its blur there); `None` where no
+    /// photon arrived.
     pub fn lookup(&self, x: DVec3, n: DVec3) -> Option<(DVec3, f64)> {
         let tree = self.tree.as_ref()?;
         let n = n.as_vec3();

@@ -281,7 +281,7 @@ impl Progressive<'_> {
             embree: self.embree,
             max_depth: render.max_depth,
             seed: render.seed,
-            direct: Some(&near_direct),
+            direct: &near_direct,
         };
         let estimators = match &maps {
             Some(m) => m.estimators_for(&settings, at)?,
