@@ -224,6 +224,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             light_paths: *light_paths,
             caustic_paths: *caustic_paths,
             direct_grids: grids,
+            seed: 0,
         };
         let reference = pool.install(|| {
             load_or_make(

@@ -242,6 +242,7 @@ fn gathering_through_glass_brings_the_light_of_the_spheres_shadow() {
         light_paths: 6_000_000,
         caustic_paths: 3_000_000,
         direct_grids: [2, 3],
+        seed: 0,
     };
     let reference = make(&scene, &embree, &settings, &mut |_| ()).unwrap();
     let shadow = Regions::new(&scene, &embree, &reference.film).shadow;

@@ -138,6 +138,7 @@ fn split_reference_agrees_with_plain_light_tracing_and_is_less_noisy() {
         light_paths: paths / 2,
         caustic_paths: paths / 2,
         direct_grids: [4, 5],
+        seed: 0,
     };
     let split = pool
         .install(|| make(&scene, &embree, &settings, &mut |_| {}))
@@ -171,4 +172,77 @@ fn split_reference_agrees_with_plain_light_tracing_and_is_less_noisy() {
             );
         }
     }
+}
+
+/// Runs `photondiff reference` on a 64 x 48 canonical scene with `args`; returns its status and
+/// standard error.
+fn reference_cli(dir: &std::path::Path, args: &[&str]) -> (bool, String) {
+    let scene = dir.join("scene.toml");
+    let text = include_str!("../scenes/caustic-sphere.toml")
+        .replace("width = 640", "width = 64")
+        .replace("height = 480", "height = 48");
+    std::fs::write(&scene, text).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("reference")
+        .arg(&scene)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// A reference made in parts with different seeds and merged is the parts' mean, image and
+/// halves alike; parts that are not independent or not alike are refused.
+#[test]
+fn references_made_in_parts_merge_into_their_mean() {
+    use photondiff::render::film::Film;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let small = ["--light-paths", "200000", "--caustic-paths", "100000"];
+    let grids = ["--direct-grids", "2,3"];
+    for seed in ["1", "2"] {
+        let out = format!("part{seed}.exr");
+        let (ok, err) = reference_cli(
+            d,
+            &[&small[..], &grids, &["--seed", seed, "-o", &out]].concat(),
+        );
+        assert!(ok, "{err}");
+    }
+    let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "part2.exr", "-o", "all.exr"]);
+    assert!(ok, "{err}");
+    for suffix in ["", "-a", "-b"] {
+        let read = |name: &str| Film::read_exr(&d.join(format!("{name}{suffix}.exr"))).unwrap();
+        let (one, two, all) = (read("part1"), read("part2"), read("all"));
+        assert!(one != two, "seeds 1 and 2 traced the same paths");
+        for ((a, b), m) in one.pixels.iter().zip(&two.pixels).zip(&all.pixels) {
+            let mean = (*a + *b) * 0.5;
+            assert!((*m - mean).abs().max_element() <= 1e-6 * mean.max_element().max(1e-30));
+        }
+    }
+    // The same seed twice would count the same paths twice.
+    let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "part1.exr", "-o", "x.exr"]);
+    assert!(!ok);
+    assert!(err.contains("part1.exr: seed 1 appears twice"), "{err}");
+    // Other settings (here the direct grids) cannot be averaged.
+    let (ok, err) = reference_cli(
+        d,
+        &[
+            &small[..],
+            &["--direct-grids", "2,4", "--seed", "3", "-o", "part3.exr"],
+        ]
+        .concat(),
+    );
+    assert!(ok, "{err}");
+    let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "part3.exr", "-o", "x.exr"]);
+    assert!(!ok);
+    assert!(
+        err.contains(
+            "part3.exr: made with 200000-100000-2x4, but part1.exr with 200000-100000-2x3"
+        ),
+        "{err}"
+    );
 }

@@ -75,6 +75,7 @@ pub fn scene_with_reference(
         light_paths,
         caustic_paths,
         direct_grids: [16, 17],
+        seed: 0,
     };
     let reference = load_or_make(
         &scene,

@@ -3,10 +3,15 @@
 
 use super::create_parent;
 use photondiff::embree::Device;
-use photondiff::reference::cache::{make, ReferenceSettings};
+use photondiff::reference::cache::{make, merge, Reference, ReferenceSettings};
 use photondiff::reference::metrics::Regions;
+use photondiff::render::film::Film;
 use photondiff::scene::file::load_scene;
-use std::path::PathBuf;
+use photondiff::scene::Scene;
+use std::path::{Path, PathBuf};
+
+/// The EXR attribute holding the settings a reference was made with.
+const META_KEY: &str = "photondiff/reference";
 
 #[derive(clap::Args)]
 pub struct ReferenceArgs {
@@ -27,6 +32,79 @@ pub struct ReferenceArgs {
     /// Worker threads (0 = one per core).
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
+    /// Seed of the light paths. References of one scene made with the same settings and
+    /// different seeds are independent, and `--merge` averages them into one with their paths
+    /// summed: a long reference made in parts, on several machines or over several days.
+    #[arg(long, value_name = "S", default_value_t = 0)]
+    seed: u64,
+    /// Instead of tracing, write the mean of these references (each with its -a and -b halves
+    /// beside it), which must have been made with the same settings and different seeds.
+    #[arg(long, value_name = "PART.exr", num_args = 1..)]
+    merge: Vec<PathBuf>,
+}
+
+/// The path of a reference's half `s` (`a` or `b`): `OUT-s.exr` beside `OUT.exr`.
+fn half_path(output: &Path, s: &str) -> PathBuf {
+    PathBuf::from(format!("{}-{s}.exr", output.with_extension("").display()))
+}
+
+/// The settings a reference was made with, from its metadata, split into the seed and the rest
+/// (a reference made before seeds existed has seed 0).
+fn settings_of(path: &Path) -> Result<(String, u64), String> {
+    let text = Film::read_exr_attribute(path, META_KEY)?.ok_or_else(|| {
+        format!(
+            "{}: not a reference (no {META_KEY} attribute)",
+            path.display()
+        )
+    })?;
+    match text.rsplit_once("-seed") {
+        Some((rest, seed)) => {
+            let seed = seed
+                .parse()
+                .map_err(|_| format!("{}: cannot read the seed in {text:?}", path.display()))?;
+            Ok((rest.to_string(), seed))
+        }
+        None => Ok((text, 0)),
+    }
+}
+
+/// Reads the references of `--merge` and checks that they can be averaged.
+fn read_parts(parts: &[PathBuf]) -> Result<(Vec<Reference>, String), String> {
+    let mut seeds = Vec::new();
+    let mut common: Option<String> = None;
+    let mut references = Vec::new();
+    for part in parts {
+        let (settings, seed) = settings_of(part)?;
+        if let Some(c) = &common {
+            if *c != settings {
+                return Err(format!(
+                    "{}: made with {settings}, but {} with {c}: only references made with the \
+                     same settings can be merged",
+                    part.display(),
+                    parts[0].display()
+                ));
+            }
+        }
+        if seeds.contains(&seed) {
+            return Err(format!(
+                "{}: seed {seed} appears twice among the parts: they would not be independent",
+                part.display()
+            ));
+        }
+        seeds.push(seed);
+        common = Some(settings);
+        references.push(Reference {
+            film: Film::read_exr(part)?,
+            half_a: Film::read_exr(&half_path(part, "a"))?,
+            half_b: Film::read_exr(&half_path(part, "b"))?,
+        });
+    }
+    let meta = format!(
+        "mean of {} references with seeds {seeds:?}, each {}",
+        parts.len(),
+        common.unwrap_or_default()
+    );
+    Ok((references, meta))
 }
 
 /// Runs `photondiff reference`.
@@ -40,14 +118,20 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
             ))
         }
     };
-    if args.light_paths == 0 && args.caustic_paths == 0 {
-        return Err("--light-paths and --caustic-paths cannot both be 0".into());
-    }
     let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;
     let device = Device::new().map_err(|e| e.to_string())?;
     let embree = scene
         .build_embree(&device)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    if !args.merge.is_empty() {
+        let (parts, meta) = read_parts(&args.merge)?;
+        let reference = merge(&parts)?;
+        let meta = vec![(META_KEY.to_string(), meta)];
+        return write(args, &scene, &embree, &reference, &meta, None);
+    }
+    if args.light_paths == 0 && args.caustic_paths == 0 {
+        return Err("--light-paths and --caustic-paths cannot both be 0".into());
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()
@@ -56,19 +140,36 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         light_paths: args.light_paths,
         caustic_paths: args.caustic_paths,
         direct_grids: grids,
+        seed: args.seed,
     };
     let start = std::time::Instant::now();
     let reference = pool.install(|| make(&scene, &embree, &settings, &mut |m| eprintln!("{m}")))?;
     let seconds = start.elapsed().as_secs_f64();
-    let regions = Regions::new(&scene, &embree, &reference.film);
+    let meta = vec![(META_KEY.to_string(), settings.tag())];
+    write(args, &scene, &embree, &reference, &meta, Some(seconds))
+}
+
+/// Writes the reference and its halves and prints its noise per region.
+fn write(
+    args: &ReferenceArgs,
+    scene: &Scene,
+    embree: &photondiff::embree::Scene,
+    reference: &Reference,
+    meta: &[(String, String)],
+    seconds: Option<f64>,
+) -> Result<(), String> {
+    let regions = Regions::new(scene, embree, &reference.film);
     create_parent(&args.output)?;
-    let stem = args.output.with_extension("");
-    let half = |s: &str| PathBuf::from(format!("{}-{s}.exr", stem.display()));
-    let meta = vec![("photondiff/reference".to_string(), format!("{settings:?}"))];
-    reference.film.write_exr(&args.output, &meta)?;
-    reference.half_a.write_exr(&half("a"), &meta)?;
-    reference.half_b.write_exr(&half("b"), &meta)?;
-    println!("reference made in {seconds:.1} s; relative noise per pixel (from its halves):");
+    let half = |s: &str| half_path(&args.output, s);
+    reference.film.write_exr(&args.output, meta)?;
+    reference.half_a.write_exr(&half("a"), meta)?;
+    reference.half_b.write_exr(&half("b"), meta)?;
+    match seconds {
+        Some(s) => {
+            println!("reference made in {s:.1} s; relative noise per pixel (from its halves):")
+        }
+        None => println!("references merged; relative noise per pixel (from its halves):"),
+    }
     for (name, pixels) in [
         ("floor", &regions.diffuse),
         ("caustic", &regions.caustic),

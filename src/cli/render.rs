@@ -32,6 +32,14 @@ pub struct RenderArgs {
     /// spanning 1/N of the pixel, box-filtered.
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
     view_grid: u32,
+    /// Cells per axis of a pixel on a geometric edge (where the rays through its corners meet
+    /// different surfaces: an outline, two walls meeting): such pixels alone are rendered on an
+    /// N x N grid, each cell with its own footprint, so that an estimate over the footprint
+    /// does not spread one surface's light over the part of the pixel another hides; final
+    /// gathering spends the pixel's --gather-rays over its cells. Costs one corner ray per pixel
+    /// plus the edge pixels' cells. 1 (the default) or at most --view-grid: off.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
+    edge_grid: u32,
     /// Worker threads (0 = one per core).
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
@@ -221,6 +229,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     stats.memory.bvh_build_peak_bytes = device.memory().peak;
     let options = RenderOptions::default()
         .with_view_grid(args.view_grid)
+        .with_edge_grid(args.edge_grid)
         .with_threads(args.threads)
         .with_seed(args.seed)
         .with_max_depth(args.max_depth)
@@ -368,6 +377,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         (
             "photondiff/view_grid".to_string(),
             args.view_grid.to_string(),
+        ),
+        (
+            "photondiff/edge_grid".to_string(),
+            args.edge_grid.to_string(),
         ),
         (
             "photondiff/estimator".to_string(),

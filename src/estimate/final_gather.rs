@@ -200,8 +200,13 @@ fn position_index(x: DVec3) -> u64 {
 
 impl RadianceEstimator for FinalGather<'_> {
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
+        self.radiance_share(q, 1.0, counts)
+    }
+
+    /// `share` of the gather rays (rounded up, at least one).
+    fn radiance_share(&self, q: &GatherQuery, share: f64, counts: &mut GatherCounts) -> DVec3 {
         counts.final_gathers += 1;
-        let n = self.rays.max(1);
+        let n = ((self.rays as f64 * share.clamp(0.0, 1.0)).ceil() as u32).max(1);
         let mut rng = Rng::new(self.seed, position_index(q.position));
         let (s0, s1) = (rng.uniform(), rng.uniform());
         let mut sum = DVec3::ZERO;

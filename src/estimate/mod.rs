@@ -82,6 +82,14 @@ pub trait RadianceEstimator: Sync {
     fn integrates_view_footprint(&self) -> bool {
         false
     }
+
+    /// [`RadianceEstimator::radiance`] for a query that stands for `share` (in `(0, 1]`) of
+    /// what one camera ray usually stands for: a cell of a pixel split finer at a geometric
+    /// edge (`render::edges`). An estimator that samples (final gathering) spends that share of
+    /// its samples; one that reads the maps answers as for any query.
+    fn radiance_share(&self, query: &GatherQuery, _share: f64, counts: &mut GatherCounts) -> DVec3 {
+        self.radiance(query, counts)
+    }
 }
 
 /// Photons stored on a surface facing another way than the query's (the other side of a thin

@@ -47,6 +47,24 @@ pub struct ReferenceSettings {
     pub caustic_paths: u64,
     /// Camera rays per pixel along each axis of the two halves' direct light.
     pub direct_grids: [u32; 2],
+    /// Seed of the light paths: references made with different seeds are independent, so their
+    /// mean ([`merge`]) is a reference with their paths summed.
+    pub seed: u64,
+}
+
+impl ReferenceSettings {
+    /// The settings in a few characters, as in cached references' names and metadata:
+    /// `{light paths}-{caustic paths}-{grid A}x{grid B}`, then `-seed{S}` unless the seed is 0.
+    pub fn tag(&self) -> String {
+        let mut tag = format!(
+            "{}-{}-{}x{}",
+            self.light_paths, self.caustic_paths, self.direct_grids[0], self.direct_grids[1]
+        );
+        if self.seed != 0 {
+            tag += &format!("-seed{}", self.seed);
+        }
+        tag
+    }
 }
 
 impl Default for ReferenceSettings {
@@ -57,6 +75,7 @@ impl Default for ReferenceSettings {
             light_paths: 1_000_000_000,
             caustic_paths: 1_000_000_000,
             direct_grids: [16, 17],
+            seed: 0,
         }
     }
 }
@@ -87,6 +106,7 @@ pub fn make(
         paths: settings.light_paths,
         caustic_paths: settings.caustic_paths,
         direct: false,
+        seed: settings.seed,
         ..LightTraceOptions::default()
     };
     let traced = LightTracer::new(scene, embree, &options).run(&indicatif::ProgressBar::hidden());
@@ -119,6 +139,38 @@ pub fn make(
     })
 }
 
+/// The mean of references made with the same settings and different seeds: a reference with
+/// their light paths summed (each part's direct light is the same, so it stays as it is).
+pub fn merge(parts: &[Reference]) -> Result<Reference, String> {
+    let first = parts.first().ok_or("no references to merge")?;
+    let (w, h) = (first.film.width, first.film.height);
+    if let Some(p) = parts
+        .iter()
+        .find(|p| (p.film.width, p.film.height) != (w, h))
+    {
+        return Err(format!(
+            "references of different sizes: {w}x{h} and {}x{}",
+            p.film.width, p.film.height
+        ));
+    }
+    let mean = |film: fn(&Reference) -> &Film| {
+        let mut sum = Film::new(w, h);
+        for part in parts {
+            for (s, p) in sum.pixels.iter_mut().zip(&film(part).pixels) {
+                *s += *p;
+            }
+        }
+        let n = parts.len() as f64;
+        sum.pixels.iter_mut().for_each(|p| *p /= n);
+        sum
+    };
+    Ok(Reference {
+        film: mean(|r| &r.film),
+        half_a: mean(|r| &r.half_a),
+        half_b: mean(|r| &r.half_b),
+    })
+}
+
 /// Loads the reference cached as `{dir}/{name}-{w}x{h}-{settings}.exr` (with `-a`/`-b`
 /// halves), or makes it ([`make`]) and caches it.
 pub fn load_or_make(
@@ -130,13 +182,7 @@ pub fn load_or_make(
     log: &mut dyn FnMut(&str),
 ) -> Result<Reference, String> {
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let tag = format!(
-        "{}-{}-{}x{}",
-        settings.light_paths,
-        settings.caustic_paths,
-        settings.direct_grids[0],
-        settings.direct_grids[1]
-    );
+    let tag = settings.tag();
     let file = |suffix: &str| -> PathBuf { dir.join(format!("{name}-{w}x{h}-{tag}{suffix}.exr")) };
     if file("").exists() && file("-a").exists() && file("-b").exists() {
         log(&format!("reference: reading {}", file("").display()));

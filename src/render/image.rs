@@ -10,6 +10,7 @@ use crate::estimate::{GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::surface::facing;
 use crate::render::camera_path::{DiffuseVertex, PathTally, ViewPaths};
 use crate::render::direct_light::DirectLight;
+use crate::render::edges::edge_pixels;
 use crate::render::film::Film;
 use crate::render::split::Window;
 use crate::render::stats::{RayCounts, Stats};
@@ -27,6 +28,10 @@ pub const TILE_SIZE: u32 = 16;
 pub struct RenderOptions {
     /// Camera rays per pixel along each axis (N x N on a regular grid, box-filtered). Default 1.
     pub view_grid: u32,
+    /// Cells per axis of a pixel on a geometric edge ([`crate::render::edges`]): such a pixel
+    /// is rendered on an N x N grid (when N exceeds `view_grid`), each cell with its own
+    /// footprint, final gathering spending the pixel's rays over its cells. Default 1 (off).
+    pub edge_grid: u32,
     /// Maximum number of specular bounces of a camera path. Default 10.
     pub max_depth: u32,
     /// Area-light samples per diffuse hit, per light, along each axis (stratified). Default 4.
@@ -54,6 +59,7 @@ impl Default for RenderOptions {
     fn default() -> Self {
         RenderOptions {
             view_grid: 1,
+            edge_grid: 1,
             max_depth: 10,
             area_strata: 4,
             footprint_strata: 1,
@@ -70,6 +76,11 @@ impl RenderOptions {
     /// Sets [`RenderOptions::view_grid`].
     pub fn with_view_grid(mut self, n: u32) -> Self {
         self.view_grid = n;
+        self
+    }
+    /// Sets [`RenderOptions::edge_grid`].
+    pub fn with_edge_grid(mut self, n: u32) -> Self {
+        self.edge_grid = n;
         self
     }
     /// Sets [`RenderOptions::max_depth`].
@@ -137,6 +148,7 @@ struct TileResult {
     reach: Vec<bool>,
     rays: RayCounts,
     cut_at_max_depth: u64,
+    edge_pixels: u64,
     gathers: GatherCounts,
 }
 
@@ -175,6 +187,12 @@ pub fn render_image(
         return Err(format!(
             "view grid must be in 1..=64, got {}",
             options.view_grid
+        ));
+    }
+    if !(1..=64).contains(&options.edge_grid) {
+        return Err(format!(
+            "edge grid must be in 1..=64, got {}",
+            options.edge_grid
         ));
     }
     let (width, height) = (scene.camera.width, scene.camera.height);
@@ -226,6 +244,7 @@ pub fn render_image(
         }
         stats.rays.add(&result.rays);
         stats.paths_cut_at_max_depth += result.cut_at_max_depth;
+        stats.edge_pixels += result.edge_pixels;
         stats.gathers.add(&result.gathers);
     }
     stats.invalid_rays += embree.invalid_rays() - invalid_before;
@@ -273,10 +292,10 @@ impl<'a> TileRenderer<'a> {
     }
 
     /// Camera samples of a tile in 4 x 4 pixel blocks, so that each packet of 16 rays is
-    /// coherent: `(pixel index in tile, x, y)` in continuous pixel coordinates, each at the
-    /// options' jitter within its cell of the view grid.
-    fn samples(&self, tile: Tile) -> Vec<(usize, f64, f64)> {
-        let n = self.options.view_grid;
+    /// coherent: `(pixel index in tile, x, y, cells per axis)` in continuous pixel coordinates,
+    /// each at the options' jitter within its cell: the view grid's, or the edge grid's for a
+    /// pixel flagged in `edge`.
+    fn samples(&self, tile: Tile, edge: &[bool]) -> Vec<(usize, f64, f64, u32)> {
         let [jx, jy] = self.options.jitter;
         let tw = tile.x1 - tile.x0;
         let mut samples = Vec::new();
@@ -285,12 +304,18 @@ impl<'a> TileRenderer<'a> {
                 for y in by..(by + 4).min(tile.y1) {
                     for x in bx..(bx + 4).min(tile.x1) {
                         let pixel = ((y - tile.y0) * tw + (x - tile.x0)) as usize;
+                        let n = if edge.get(pixel) == Some(&true) {
+                            self.options.edge_grid.max(self.options.view_grid)
+                        } else {
+                            self.options.view_grid
+                        };
                         for j in 0..n {
                             for i in 0..n {
                                 samples.push((
                                     pixel,
                                     x as f64 + (i as f64 + jx) / n as f64,
                                     y as f64 + (j as f64 + jy) / n as f64,
+                                    n,
                                 ));
                             }
                         }
@@ -303,13 +328,20 @@ impl<'a> TileRenderer<'a> {
 
     fn render_tile(&self, tile: Tile) -> TileResult {
         let camera = &self.scene.camera;
-        let n = self.options.view_grid;
-        let share = 1.0 / (n * n) as f64;
+        let view_grid = self.options.view_grid;
         let tw = (tile.x1 - tile.x0) as usize;
         let mut pixels = vec![DVec3::ZERO; tw * (tile.y1 - tile.y0) as usize];
         let mut reach = vec![false; pixels.len()];
-        let samples = self.samples(tile);
         let mut tally = PathTally::default();
+        let edge = if self.options.edge_grid > view_grid {
+            let (edge, corner_rays) =
+                edge_pixels(camera, self.embree, (tile.x0, tile.y0, tile.x1, tile.y1));
+            tally.rays.camera += corner_rays;
+            edge
+        } else {
+            Vec::new()
+        };
+        let samples = self.samples(tile, &edge);
         let mut gathers = GatherCounts::default();
         let mut vertices: Vec<DiffuseVertex> = Vec::new();
         let mut radiance = [DVec3::ZERO; PACKET_WIDTH];
@@ -322,7 +354,7 @@ impl<'a> TileRenderer<'a> {
         for chunk in samples.chunks(PACKET_WIDTH) {
             let differentials: Vec<_> = chunk
                 .iter()
-                .map(|&(_, x, y)| camera.ray(x, y, 1.0 / n as f64))
+                .map(|&(_, x, y, n)| camera.ray(x, y, 1.0 / n as f64))
                 .collect();
             for (ray, diff) in rays.iter_mut().zip(&differentials) {
                 *ray = Ray::new(diff.p, diff.d);
@@ -333,10 +365,11 @@ impl<'a> TileRenderer<'a> {
             vertices.clear();
             radiance.fill(DVec3::ZERO);
             for (lane, diff) in differentials.iter().enumerate() {
+                let n = chunk[lane].3;
                 self.paths.follow(
                     diff,
                     hits[lane],
-                    DVec3::splat(share),
+                    DVec3::splat(1.0 / (n * n) as f64),
                     0,
                     lane,
                     &mut vertices,
@@ -366,7 +399,14 @@ impl<'a> TileRenderer<'a> {
                         } else {
                             &query
                         };
-                        let l = estimator.radiance(at, &mut gathers);
+                        // A cell of an edge pixel spends its share of the view cell's effort.
+                        let n = chunk[v.sample].3;
+                        let l = if n > view_grid {
+                            let share = (view_grid as f64 / n as f64).powi(2);
+                            estimator.radiance_share(at, share, &mut gathers)
+                        } else {
+                            estimator.radiance(at, &mut gathers)
+                        };
                         if k == 0 && l != DVec3::ZERO {
                             reach[chunk[v.sample].0] = true;
                         }
@@ -374,7 +414,7 @@ impl<'a> TileRenderer<'a> {
                     }
                 }
             }
-            for (lane, &(pixel, _, _)) in chunk.iter().enumerate() {
+            for (lane, &(pixel, ..)) in chunk.iter().enumerate() {
                 pixels[pixel] += radiance[lane];
             }
         }
@@ -383,6 +423,7 @@ impl<'a> TileRenderer<'a> {
             reach,
             rays: tally.rays,
             cut_at_max_depth: tally.cut_at_max_depth,
+            edge_pixels: edge.iter().filter(|&&e| e).count() as u64,
             gathers,
         }
     }

@@ -55,6 +55,8 @@ pub struct Stats {
     pub invalid_rays: u64,
     /// Camera paths cut by the specular depth limit.
     pub paths_cut_at_max_depth: u64,
+    /// Pixels rendered on the edge grid (on a geometric edge), summed over passes.
+    pub edge_pixels: u64,
     /// Threads used for rendering.
     pub threads: usize,
     /// The photon maps traced.
@@ -179,6 +181,7 @@ impl Stats {
         self.rays.add(&pass.rays);
         self.invalid_rays += pass.invalid_rays;
         self.paths_cut_at_max_depth += pass.paths_cut_at_max_depth;
+        self.edge_pixels += pass.edge_pixels;
         self.threads = self.threads.max(pass.threads);
         self.gathers.add(&pass.gathers);
         for map in pass.photon_maps {
@@ -295,6 +298,12 @@ impl Stats {
                 p.alpha,
                 p.last_area_factor,
                 p.noise.describe()
+            );
+        }
+        if self.edge_pixels > 0 {
+            out += &format!(
+                "  {} pixels on geometric edges rendered on the edge grid\n",
+                self.edge_pixels
             );
         }
         if self.paths_cut_at_max_depth > 0 {

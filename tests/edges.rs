@@ -1,0 +1,226 @@
+//! Pixels on geometric edges (`--edge-grid`): which pixels they are, that they alone are
+//! rendered on the finer grid, and that final gathering spends a pixel's rays over its cells.
+
+use photondiff::embree::{Device, Ray};
+use photondiff::render::edges::edge_pixels;
+use photondiff::render::film::Film;
+use photondiff::render::stats::Stats;
+use photondiff::render::{render, RenderOptions, TILE_SIZE};
+use photondiff::scene::file::parse_scene;
+use photondiff::scene::Scene;
+use std::path::Path;
+use std::process::Command;
+
+/// The canonical scene (a glass sphere on a floor under a point light) at 160 x 120.
+fn small_canonical() -> Scene {
+    let text = include_str!("../scenes/caustic-sphere.toml")
+        .replace("width = 640", "width = 160")
+        .replace("height = 480", "height = 120");
+    parse_scene(&text, Path::new(".")).unwrap()
+}
+
+#[test]
+fn edge_pixels_are_those_whose_corner_rays_meet_different_surfaces() {
+    let scene = small_canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    // One ray at a time through each pixel corner: the first surface met, if any.
+    let surface = |x: u32, y: u32| {
+        let r = scene.camera.ray(x as f64, y as f64, 1.0);
+        embree.intersect(&Ray::new(r.p, r.d)).map(|hit| hit.geom_id)
+    };
+    let (whole, rays) = edge_pixels(&scene.camera, &embree, (0, 0, w, h));
+    assert_eq!(rays, ((w + 1) * (h + 1)) as u64);
+    let mut edges = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let corners = [
+                surface(x, y),
+                surface(x + 1, y),
+                surface(x, y + 1),
+                surface(x + 1, y + 1),
+            ];
+            let expected = corners.iter().any(|&c| c != corners[0]);
+            assert_eq!(whole[(y * w + x) as usize], expected, "pixel ({x}, {y})");
+            edges += expected as usize;
+        }
+    }
+    // The sphere's outline and the floor's far edge: a thin line of pixels, not an area.
+    assert!(
+        edges > 200 && edges < (w * h / 20) as usize,
+        "{edges} edge pixels"
+    );
+    // Tiles tell the same pixels: their corner rays at the tile borders are the same rays.
+    for ty in (0..h).step_by(TILE_SIZE as usize) {
+        for tx in (0..w).step_by(TILE_SIZE as usize) {
+            let (x1, y1) = ((tx + TILE_SIZE).min(w), (ty + TILE_SIZE).min(h));
+            let (tile, _) = edge_pixels(&scene.camera, &embree, (tx, ty, x1, y1));
+            for y in ty..y1 {
+                for x in tx..x1 {
+                    let k = ((y - ty) * (x1 - tx) + (x - tx)) as usize;
+                    assert_eq!(tile[k], whole[(y * w + x) as usize], "pixel ({x}, {y})");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn edge_pixels_render_as_the_finer_grid_and_the_rest_as_before() {
+    let scene = small_canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let (edge, _) = edge_pixels(&scene.camera, &embree, (0, 0, w, h));
+    let direct = |options: RenderOptions| -> (Film, Stats) {
+        let mut stats = Stats::default();
+        let film = render(&scene, &embree, &[], &options.with_threads(2), &mut stats).unwrap();
+        (film, stats)
+    };
+    let (one, _) = direct(RenderOptions::default());
+    let (four, _) = direct(RenderOptions::default().with_view_grid(4));
+    let (split, stats) = direct(RenderOptions::default().with_edge_grid(4));
+    let edges = edge.iter().filter(|&&e| e).count();
+    assert_eq!(stats.edge_pixels, edges as u64);
+    // Camera rays: one per pixel, 15 more per edge pixel, and each tile's corners.
+    let t = TILE_SIZE;
+    let corners: u32 = (0..h.div_ceil(t))
+        .flat_map(|ty| (0..w.div_ceil(t)).map(move |tx| (tx, ty)))
+        .map(|(tx, ty)| ((t * (tx + 1)).min(w) - t * tx + 1) * ((t * (ty + 1)).min(h) - t * ty + 1))
+        .sum();
+    assert_eq!(
+        stats.rays.camera,
+        (w * h) as u64 + 15 * edges as u64 + corners as u64
+    );
+    let mut differ = 0;
+    for (i, &on_edge) in edge.iter().enumerate() {
+        let expected = if on_edge {
+            four.pixels[i]
+        } else {
+            one.pixels[i]
+        };
+        assert!(
+            (split.pixels[i] - expected).abs().max_element() <= 1e-12 * expected.max_element(),
+            "pixel {i} (edge {on_edge}): {} against {}",
+            split.pixels[i],
+            expected
+        );
+        differ += (on_edge && (four.pixels[i] - one.pixels[i]).max_element().abs() > 1e-3) as usize;
+    }
+    // The finer grid changes the edge pixels (the test would pass vacuously otherwise).
+    assert!(
+        differ > edges / 4,
+        "only {differ} of {edges} edge pixels changed"
+    );
+    // An edge grid no finer than the view grid changes nothing.
+    let (same, stats) = direct(RenderOptions::default().with_view_grid(4).with_edge_grid(4));
+    assert!(same == four);
+    assert_eq!(stats.edge_pixels, 0);
+}
+
+/// A closed diffuse sphere with a diffuse ball inside, under a point light: every gather ray
+/// is one segment, and the ball's outline makes edge pixels.
+const BALL_IN_A_SPHERE: &str = r#"
+[camera]
+eye = [0.0, 0.0, 0.6]
+look_at = [0.0, -0.2, -1.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 60.0
+width = 40
+height = 30
+
+[materials.wall]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[[lights]]
+type = "point"
+position = [0.0, 0.5, 0.0]
+intensity = [1.0, 1.0, 1.0]
+
+[[shapes]]
+type = "sphere"
+center = [0.0, 0.0, 0.0]
+radius = 1.0
+material = "wall"
+segments = 64
+
+[[shapes]]
+type = "sphere"
+center = [0.0, -0.3, -0.5]
+radius = 0.25
+material = "wall"
+segments = 64
+"#;
+
+#[test]
+fn final_gathering_spends_an_edge_pixels_rays_over_its_cells() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, BALL_IN_A_SPHERE).unwrap();
+    let stats = dir.path().join("stats.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args([
+            "render",
+            "--quiet",
+            "--estimator",
+            "pd",
+            "--photons",
+            "2000",
+        ])
+        .args([
+            "--gather-rays",
+            "16",
+            "--gather-near",
+            "0",
+            "--edge-grid",
+            "4",
+        ])
+        .arg("--stats-json")
+        .arg(&stats)
+        .arg("-o")
+        .arg(dir.path().join("img.exr"))
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let count = |v: &serde_json::Value| v.as_u64().unwrap();
+    let edges = count(&json["edge_pixels"]);
+    let gathers = &json["gathers"];
+    let pixels = 40 * 30;
+    assert!(edges > 10 && edges < pixels / 4, "{edges} edge pixels");
+    // Each edge pixel gathers in 16 cells of one ray each; every other pixel gathers 16 rays.
+    assert_eq!(
+        count(&gathers["final_gathers"]),
+        pixels - edges + 16 * edges
+    );
+    assert_eq!(count(&gathers["gather_rays"]), 16 * pixels);
+}
+
+#[test]
+fn bad_edge_grids_are_clear_errors() {
+    for bad in ["0", "65", "-1"] {
+        let out = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+            .args([
+                "render",
+                &format!("--edge-grid={bad}"),
+                "scenes/caustic-sphere.toml",
+            ])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success());
+        assert!(
+            stderr.contains("--edge-grid") && stderr.contains(bad),
+            "--edge-grid {bad}: {stderr}"
+        );
+    }
+}
