@@ -2,7 +2,7 @@
 //! rendered on the finer grid, and that final gathering spends a pixel's rays over its cells.
 
 use photondiff::embree::{Device, Ray};
-use photondiff::render::edges::edge_pixels;
+use photondiff::render::edges::{edge_pixels, same_surface};
 use photondiff::render::film::Film;
 use photondiff::render::stats::Stats;
 use photondiff::render::{render, RenderOptions, TILE_SIZE};
@@ -28,7 +28,9 @@ fn edge_pixels_are_those_whose_corner_rays_meet_different_surfaces() {
     // One ray at a time through each pixel corner: the first surface met, if any.
     let surface = |x: u32, y: u32| {
         let r = scene.camera.ray(x as f64, y as f64, 1.0);
-        embree.intersect(&Ray::new(r.p, r.d)).map(|hit| hit.geom_id)
+        embree
+            .intersect(&Ray::new(r.p, r.d))
+            .map(|hit| (hit.geom_id, hit.geometric_normal))
     };
     let (whole, rays) = edge_pixels(&scene.camera, &embree, (0, 0, w, h));
     assert_eq!(rays, ((w + 1) * (h + 1)) as u64);
@@ -41,7 +43,8 @@ fn edge_pixels_are_those_whose_corner_rays_meet_different_surfaces() {
                 surface(x, y + 1),
                 surface(x + 1, y + 1),
             ];
-            let expected = corners.iter().any(|&c| c != corners[0]);
+            let expected =
+                (0..4).any(|a| (a + 1..4).any(|b| !same_surface(corners[a], corners[b])));
             assert_eq!(whole[(y * w + x) as usize], expected, "pixel ({x}, {y})");
             edges += expected as usize;
         }
@@ -64,6 +67,71 @@ fn edge_pixels_are_those_whose_corner_rays_meet_different_surfaces() {
             }
         }
     }
+}
+
+/// One mesh folded along a line (two quads meeting at a right angle, one OBJ file), seen across
+/// the fold: the pixels on the crease are edge pixels although every corner ray meets the same
+/// mesh, and the pixels on either flat side are not.
+#[test]
+fn a_crease_in_one_mesh_is_an_edge() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("fold.obj"),
+        "v -10 0 -2\nv 10 0 -2\nv 10 0 10\nv -10 0 10\nv -10 10 -2\nv 10 10 -2\n\
+         f 1 4 3\nf 1 3 2\nf 1 2 6\nf 1 6 5\n",
+    )
+    .unwrap();
+    let scene = parse_scene(
+        r#"
+[camera]
+eye = [0.3, 1.5, 3.0]
+look_at = [0.0, 0.5, -2.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 50.0
+width = 64
+height = 48
+
+[materials.white]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[[lights]]
+type = "point"
+position = [0.0, 2.0, 0.0]
+intensity = [1.0, 1.0, 1.0]
+
+[[shapes]]
+type = "mesh"
+file = "fold.obj"
+material = "white"
+"#,
+        dir.path(),
+    )
+    .unwrap();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let (edge, _) = edge_pixels(&scene.camera, &embree, (0, 0, w, h));
+    // The fold (y = 0, z = -2) projects to one row per column: where the centre ray's hit
+    // changes from the floor to the wall.
+    let on_wall = |x: u32, y: u32| {
+        let r = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
+        let hit = embree
+            .intersect(&Ray::new(r.p, r.d))
+            .expect("the fold fills the view");
+        hit.geometric_normal.y.abs() < 0.5
+    };
+    for x in 0..w {
+        let fold = (1..h)
+            .find(|&y| on_wall(x, y - 1) && !on_wall(x, y))
+            .expect("a fold");
+        assert!(
+            edge[((fold - 1) * w + x) as usize] || edge[(fold * w + x) as usize],
+            "column {x}: the fold at row {fold} is not an edge"
+        );
+    }
+    let flagged = edge.iter().filter(|&&e| e).count() as u32;
+    assert!(flagged >= w && flagged <= 3 * w, "{flagged} edge pixels");
 }
 
 #[test]

@@ -1,5 +1,7 @@
 //! Pixels on a geometric edge: where the rays through a pixel's four corners first meet
-//! different surfaces (an object's outline against what lies behind it, two walls meeting).
+//! different surfaces (an object's outline against what lies behind it, two walls meeting), or
+//! one mesh whose normal turns by more than [`CREASE_COSINE`] allows between them (a crease, a
+//! mesh's outline against itself).
 //!
 //! Such a pixel sees two surfaces, but its one camera ray finds one of them, and an estimate
 //! that integrates over the ray's footprint (`integrated`, final gathering's disc) spreads that
@@ -13,6 +15,20 @@
 use crate::embree::{self, Hit, Ray, PACKET_WIDTH};
 use crate::scene::camera::Camera;
 use glam::DVec3;
+
+/// Corner rays meeting one mesh see one surface while their geometric normals agree within
+/// this cosine (about 26 degrees): finer than any crease worth the name, coarser than the
+/// facets of a tessellated curve (a 64-segment sphere's neighbours differ by under 6 degrees).
+pub const CREASE_COSINE: f64 = 0.9;
+
+/// Whether two corner rays' first hits (mesh, geometric normal) lie on one smooth surface.
+pub fn same_surface(a: Option<(u32, DVec3)>, b: Option<(u32, DVec3)>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some((ga, na)), Some((gb, nb))) => ga == gb && na.dot(nb) >= CREASE_COSINE,
+        _ => false,
+    }
+}
 
 /// Which pixels of the rectangle `[x0, x1) x [y0, y1)` lie on a geometric edge (row-major,
 /// `(x1 - x0) * (y1 - y0)` flags), and the corner rays traced to tell.
@@ -34,16 +50,19 @@ pub fn edge_pixels(
             *ray = Ray::new(d.p, d.d);
         }
         embree.intersect16(&rays[..chunk.len()], true, &mut hits);
-        surface.extend(hits[..chunk.len()].iter().map(|h| h.map(|h| h.geom_id)));
+        surface.extend(
+            hits[..chunk.len()]
+                .iter()
+                .map(|h| h.map(|h| (h.geom_id, h.geometric_normal))),
+        );
     }
     let (w, h) = (cw - 1, ch - 1);
     let edges = (0..h)
         .flat_map(|y| (0..w).map(move |x| (x, y)))
         .map(|(x, y)| {
-            let s = surface[y * cw + x];
-            [(x + 1, y), (x, y + 1), (x + 1, y + 1)]
-                .iter()
-                .any(|&(i, j)| surface[j * cw + i] != s)
+            let c =
+                [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)].map(|(i, j)| surface[j * cw + i]);
+            (0..4).any(|a| (a + 1..4).any(|b| !same_surface(c[a], c[b])))
         })
         .collect();
     (edges, corners.len() as u64)
