@@ -222,8 +222,9 @@ material = "wall"
 segments = 64
 "#;
 
-#[test]
-fn final_gathering_spends_an_edge_pixels_rays_over_its_cells() {
+/// Renders `BALL_IN_A_SPHERE` with `--estimator pd --photons 2000` and `args`; returns the
+/// statistics JSON.
+fn ball_stats(args: &[&str]) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
     std::fs::write(&scene, BALL_IN_A_SPHERE).unwrap();
@@ -237,14 +238,7 @@ fn final_gathering_spends_an_edge_pixels_rays_over_its_cells() {
             "--photons",
             "2000",
         ])
-        .args([
-            "--gather-rays",
-            "16",
-            "--gather-near",
-            "0",
-            "--edge-grid",
-            "4",
-        ])
+        .args(args)
         .arg("--stats-json")
         .arg(&stats)
         .arg("-o")
@@ -252,13 +246,16 @@ fn final_gathering_spends_an_edge_pixels_rays_over_its_cells() {
         .arg(&scene)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
+}
+
+/// With final gathering on, edge pixels are split 4 x 4 by default (`--edge-grid` left out),
+/// and each cell spends its share of the pixel's gather rays; without it the default is off.
+#[test]
+fn final_gathering_spends_an_edge_pixels_rays_over_its_cells() {
+    let json = ball_stats(&["--gather-rays", "16", "--gather-near", "0"]);
     let count = |v: &serde_json::Value| v.as_u64().unwrap();
     let edges = count(&json["edge_pixels"]);
     let gathers = &json["gathers"];
@@ -270,6 +267,7 @@ fn final_gathering_spends_an_edge_pixels_rays_over_its_cells() {
         pixels - edges + 16 * edges
     );
     assert_eq!(count(&gathers["gather_rays"]), 16 * pixels);
+    assert_eq!(ball_stats(&[])["edge_pixels"].as_u64(), Some(0));
 }
 
 #[test]

@@ -7,7 +7,9 @@ use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::pass_part::write_pass_part;
-use photondiff::render::passes::{PassReport, RenderDefaults, DEFAULT_ALPHA, DEFAULT_PASSES};
+use photondiff::render::passes::{
+    PassReport, RenderDefaults, DEFAULT_ALPHA, DEFAULT_GATHER_EDGE_GRID, DEFAULT_PASSES,
+};
 use photondiff::render::stats::Stats;
 use photondiff::render::{
     load_photon_maps, Progressive, RenderOptions, StopRules, TileSplit, Window,
@@ -37,9 +39,11 @@ pub struct RenderArgs {
     /// N x N grid, each cell with its own footprint, so that an estimate over the footprint
     /// does not spread one surface's light over the part of the pixel another hides; final
     /// gathering spends the pixel's --gather-rays over its cells. Costs one corner ray per pixel
-    /// plus the edge pixels' cells. 1 (the default) or at most --view-grid: off.
-    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
-    edge_grid: u32,
+    /// plus the edge pixels' cells. Default 4 with final gathering (--gather-rays above 0), where
+    /// the gather rays dominate and it costs a few percent, 1 (off) without; at most --view-grid
+    /// is off.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
+    edge_grid: Option<u32>,
     /// Worker threads (0 = one per core).
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
@@ -229,7 +233,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     stats.memory.bvh_build_peak_bytes = device.memory().peak;
     let options = RenderOptions::default()
         .with_view_grid(args.view_grid)
-        .with_edge_grid(args.edge_grid)
+        .with_edge_grid(args.edge_grid.unwrap_or(if args.gather_rays > 0 {
+            DEFAULT_GATHER_EDGE_GRID
+        } else {
+            1
+        }))
         .with_threads(args.threads)
         .with_seed(args.seed)
         .with_max_depth(args.max_depth)
@@ -380,7 +388,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ),
         (
             "photondiff/edge_grid".to_string(),
-            args.edge_grid.to_string(),
+            options.edge_grid.to_string(),
         ),
         (
             "photondiff/estimator".to_string(),
