@@ -6,6 +6,7 @@ use photondiff::embree::Device;
 use photondiff::reference::cache::{make, merge, Reference, ReferenceSettings};
 use photondiff::reference::metrics::Regions;
 use photondiff::render::film::Film;
+use photondiff::render::part::{read_part, Part};
 use photondiff::scene::file::load_scene;
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -50,21 +51,20 @@ fn half_path(output: &Path, s: &str) -> PathBuf {
 
 /// The settings a reference was made with, from its metadata, split into the seed and the rest
 /// (a reference made before seeds existed has seed 0).
-fn settings_of(path: &Path) -> Result<(String, u64), String> {
-    let text = Film::read_exr_attribute(path, META_KEY)?.ok_or_else(|| {
-        format!(
-            "{}: not a reference (no {META_KEY} attribute)",
-            path.display()
-        )
-    })?;
+fn settings_of(part: &Part) -> Result<(String, u64), String> {
+    let path = part.path.display();
+    let text = part
+        .metadata
+        .get(META_KEY)
+        .ok_or_else(|| format!("{path}: not a reference (no {META_KEY} attribute)"))?;
     match text.rsplit_once("-seed") {
         Some((rest, seed)) => {
             let seed = seed
                 .parse()
-                .map_err(|_| format!("{}: cannot read the seed in {text:?}", path.display()))?;
+                .map_err(|_| format!("{path}: cannot read the seed in {text:?}"))?;
             Ok((rest.to_string(), seed))
         }
-        None => Ok((text, 0)),
+        None => Ok((text.clone(), 0)),
     }
 }
 
@@ -73,14 +73,16 @@ fn read_parts(parts: &[PathBuf]) -> Result<(Vec<Reference>, String), String> {
     let mut seeds = Vec::new();
     let mut common: Option<String> = None;
     let mut references = Vec::new();
-    for part in parts {
-        let (settings, seed) = settings_of(part)?;
+    for path in parts {
+        // The image and its settings in one read.
+        let part = read_part(path)?;
+        let (settings, seed) = settings_of(&part)?;
         if let Some(c) = &common {
             if *c != settings {
                 return Err(format!(
                     "{}: made with {settings}, but {} with {c}: only references made with the \
                      same settings can be merged",
-                    part.display(),
+                    path.display(),
                     parts[0].display()
                 ));
             }
@@ -88,15 +90,15 @@ fn read_parts(parts: &[PathBuf]) -> Result<(Vec<Reference>, String), String> {
         if seeds.contains(&seed) {
             return Err(format!(
                 "{}: seed {seed} appears twice among the parts: they would not be independent",
-                part.display()
+                path.display()
             ));
         }
         seeds.push(seed);
         common = Some(settings);
         references.push(Reference {
-            film: Film::read_exr(part)?,
-            half_a: Film::read_exr(&half_path(part, "a"))?,
-            half_b: Film::read_exr(&half_path(part, "b"))?,
+            film: part.film,
+            half_a: Film::read_exr(&half_path(path, "a"))?,
+            half_b: Film::read_exr(&half_path(path, "b"))?,
         });
     }
     let meta = format!(

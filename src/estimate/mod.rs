@@ -84,9 +84,9 @@ pub trait RadianceEstimator: Sync {
     }
 
     /// [`RadianceEstimator::radiance`] for a query that stands for `share` (in `(0, 1]`) of
-    /// what one camera ray usually stands for: a cell of a pixel split finer at a geometric
-    /// edge (`render::edges`). An estimator that samples (final gathering) spends that share of
-    /// its samples; one that reads the maps answers as for any query.
+    /// what a cell of the view grid stands for: 1 for those, less for a cell of a pixel split
+    /// finer at a geometric edge (`render::edges`). An estimator that samples (final gathering)
+    /// spends that share of its samples; one that reads the maps answers as for any query.
     fn radiance_share(&self, query: &GatherQuery, _share: f64, counts: &mut GatherCounts) -> DVec3 {
         self.radiance(query, counts)
     }

@@ -87,22 +87,6 @@ impl Film {
         Ok(image.layer_data.channel_data.pixels)
     }
 
-    /// The string attribute `key` of an EXR file's first layer, if it has one.
-    pub fn read_exr_attribute(path: &Path, key: &str) -> Result<Option<String>, String> {
-        let meta = exr::meta::MetaData::read_from_file(path, false)
-            .map_err(|e| format!("{}: cannot read EXR: {e}", path.display()))?;
-        Ok(meta.headers.first().and_then(|h| {
-            h.own_attributes
-                .other
-                .iter()
-                .find(|(k, _)| *k == key)
-                .and_then(|(_, v)| match v {
-                    exr::meta::attribute::AttributeValue::Text(t) => Some(t.to_string()),
-                    _ => None,
-                })
-        }))
-    }
-
     /// Writes an 8-bit sRGB PNG preview (radiance clamped to [0, 1], no tone mapping beyond
     /// that), atomically.
     pub fn write_png(&self, path: &Path) -> Result<(), String> {

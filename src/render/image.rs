@@ -399,14 +399,10 @@ impl<'a> TileRenderer<'a> {
                         } else {
                             &query
                         };
-                        // A cell of an edge pixel spends its share of the view cell's effort.
-                        let n = chunk[v.sample].3;
-                        let l = if n > view_grid {
-                            let share = (view_grid as f64 / n as f64).powi(2);
-                            estimator.radiance_share(at, share, &mut gathers)
-                        } else {
-                            estimator.radiance(at, &mut gathers)
-                        };
+                        // A cell of an edge pixel spends its share of a view cell's effort
+                        // (1 for the view grid's own cells).
+                        let share = (view_grid as f64 / chunk[v.sample].3 as f64).powi(2);
+                        let l = estimator.radiance_share(at, share, &mut gathers);
                         if k == 0 && l != DVec3::ZERO {
                             reach[chunk[v.sample].0] = true;
                         }
