@@ -24,6 +24,26 @@ struct Ray16(ffi::RTCRay16);
 #[derive(Default)]
 struct Valid16([i32; PACKET_WIDTH]);
 
+impl Valid16 {
+    /// Whether every lane is active.
+    fn is_full(&self) -> bool {
+        self.0.iter().all(|&v| v != 0)
+    }
+}
+
+/// Writes a single ray's answer into lane `lane` of a packet.
+fn store_lane(packet: &mut ffi::RTCRayHit16, lane: usize, rayhit: &ffi::RTCRayHit) {
+    let (p, h) = (&mut packet.hit, &rayhit.hit);
+    packet.ray.tfar[lane] = rayhit.ray.tfar;
+    p.geomID[lane] = h.geomID;
+    p.primID[lane] = h.primID;
+    p.u[lane] = h.u;
+    p.v[lane] = h.v;
+    for (level, &id) in p.instID.iter_mut().zip(&h.instID) {
+        level[lane] = id;
+    }
+}
+
 fn single_ray(ray: &Ray) -> ffi::RTCRay {
     ffi::RTCRay {
         org_x: ray.origin.x as f32,
@@ -134,8 +154,24 @@ impl Scene {
             }
         }
         let mut args = IntersectArgs::new(coherent);
-        // SAFETY: packet and mask are 64-byte aligned; only lanes holding validated rays are active.
-        unsafe { api::intersect16(&valid.0, self.raw, &mut packet.0, &mut args) };
+        if valid.is_full() {
+            // SAFETY: packet and mask are 64-byte aligned; every lane holds a validated ray.
+            unsafe { api::intersect16(&valid.0, self.raw, &mut packet.0, &mut args) };
+        } else {
+            // A packet with inactive lanes costs Embree 3.13.5 ~1.5 us per inactive lane (a
+            // 16-wide call with one active lane takes as long as ~300 single rays; measured on
+            // the photon tracer's packets, which end part-full when paths run out), so its
+            // lanes are traced one by one, each answer written back into the packet.
+            for lane in (0..rays.len()).filter(|&l| valid.0[l] != 0) {
+                let mut rayhit = ffi::RTCRayHit {
+                    ray: single_ray(&rays[lane]),
+                    hit: empty_hit(),
+                };
+                // SAFETY: the ray was validated; the struct is an aligned local.
+                unsafe { api::intersect1(self.raw, &mut rayhit, &mut args) };
+                store_lane(&mut packet.0, lane, &rayhit);
+            }
+        }
         let (r, h) = (&packet.0.ray, &packet.0.hit);
         // Completing a hit reads the triangle's indices, then its vertices and normals: on a
         // large mesh each is a cache miss, and one lane at a time they would wait in turn.
@@ -186,8 +222,18 @@ impl Scene {
             }
         }
         let mut args = OccludedArgs::new(coherent);
-        // SAFETY: packet and mask are 64-byte aligned; only lanes holding validated rays are active.
-        unsafe { api::occluded16(&valid.0, self.raw, &mut packet.0, &mut args) };
+        if valid.is_full() {
+            // SAFETY: packet and mask are 64-byte aligned; every lane holds a validated ray.
+            unsafe { api::occluded16(&valid.0, self.raw, &mut packet.0, &mut args) };
+        } else {
+            // Lanes one by one, as in `intersect16`.
+            for lane in (0..rays.len()).filter(|&l| valid.0[l] != 0) {
+                let mut raw = single_ray(&rays[lane]);
+                // SAFETY: the ray was validated; the struct is an aligned local.
+                unsafe { api::occluded1(self.raw, &mut raw, &mut args) };
+                packet.0.tfar[lane] = raw.tfar;
+            }
+        }
         for (lane, b) in blocked.iter_mut().enumerate().take(rays.len()) {
             *b = valid.0[lane] != 0 && packet.0.tfar[lane] < 0.0;
         }
