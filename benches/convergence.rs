@@ -16,7 +16,7 @@
 //! the light in the sphere's shadow, as in `default_render`),
 //! `PHOTONDIFF_STRESS_REFERENCE_PATHS` (default 5*10^7), `PHOTONDIFF_DIRECT_GRIDS` (the
 //! reference's two direct-light grids, default 16,17), `PHOTONDIFF_SCENES` (`canonical`,
-//! `stress` or `all`, default all), `PHOTONDIFF_THREADS` (default all cores).
+//! `stress`, `all` or one stress scene's name, default all), `PHOTONDIFF_THREADS` (default all cores).
 //!
 //! Also writes a report page per scene (`photondiff report`'s page) to
 //! `out/convergence/<scene>/index.html`: the chart, every method's image at the first, middle and
@@ -198,13 +198,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             paths,
         ));
     }
-    if which == "all" || which == "stress" {
-        for name in [
-            "grazing-light",
-            "focal-caustic",
-            "over-an-edge",
-            "glass-through-glass",
-        ] {
+    let stress = [
+        "grazing-light",
+        "focal-caustic",
+        "over-an-edge",
+        "glass-through-glass",
+    ];
+    if !["all", "canonical", "stress"].contains(&which.as_str()) && !stress.contains(&which.as_str())
+    {
+        return Err(format!(
+            "PHOTONDIFF_SCENES={which}: expected canonical, stress, all or one of {}",
+            stress.join(", ")
+        )
+        .into());
+    }
+    for name in stress {
+        if which == "all" || which == "stress" || which == name {
             let mut scene = load_scene(&scenes_dir.join(format!("stress/{name}.toml")))?;
             scene.camera = scene.camera.with_resolution(160, 120);
             cases.push((name, scene, stress_paths, stress_paths));

@@ -289,6 +289,7 @@ proptest! {
                     normal: DVec3::Y,
                     albedo: DVec3::splat(PI),
                     footprint,
+                    corners: None,
                 };
                 power += estimate.radiance(&q, &mut counts).x * cell;
             }
@@ -340,6 +341,7 @@ fn a_vanishing_view_footprint_gives_the_photon_differential_estimate() {
                     normal: DVec3::Y,
                     albedo: DVec3::splat(0.75),
                     footprint: at.dp,
+                    corners: None,
                 },
                 &mut c,
             );
@@ -349,6 +351,7 @@ fn a_vanishing_view_footprint_gives_the_photon_differential_estimate() {
                     normal: DVec3::Y,
                     albedo: DVec3::splat(0.75),
                     footprint: at.dp.map(|f| f * scale),
+                    corners: None,
                 };
                 let v = integrated.radiance(&q, &mut c);
                 assert!(
@@ -454,6 +457,7 @@ fn the_image_is_multisampling_in_the_limit() {
                     normal: DVec3::Y,
                     albedo: DVec3::splat(0.75),
                     footprint: transfer_to(&ray, &hit).dp,
+                    corners: None,
                 };
                 queries.push((integrated.radiance(&q, &mut c).x, q));
             }

@@ -20,6 +20,7 @@
 //! ([`PhotonMap::covering`]), as the multi-sampled estimate does.
 
 use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
+use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadFrame, QuadOverlap};
 use crate::geometry::disc_integral::{
     classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
 };
@@ -151,6 +152,9 @@ struct Scratch {
     general: Vec<u32>,
     batch: ParallelogramBatch,
     means: Vec<f64>,
+    general_quads: Vec<u32>,
+    quads: QuadBatch,
+    quad_means: Vec<f64>,
 }
 
 thread_local! {
@@ -173,21 +177,28 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
 
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
         counts.gathers += 1;
-        let f = [q.footprint[0].as_vec3(), q.footprint[1].as_vec3()];
-        let f = if f[0].is_finite() && f[1].is_finite() {
-            f
+        let f = if q.footprint[0].is_finite() && q.footprint[1].is_finite() {
+            q.footprint
         } else {
-            [Vec3::ZERO; 2]
+            [DVec3::ZERO; 2]
         };
+        // The exact footprint (its corners as offsets from the query point) where the query
+        // has it, and the parallelogram, grown to hold it, that the map is asked about.
+        let quad = q.corners.and_then(|c| {
+            let (frame, grow) = quad_frame(&c.map(|c| c - q.position), &q.footprint)?;
+            Some((frame, q.footprint.map(|f| f * grow)))
+        });
+        let reach = quad.as_ref().map_or(&q.footprint, |(_, f)| f);
         SCRATCH.with(|scratch| {
             let scratch = &mut *scratch.borrow_mut();
-            self.map
-                .covering(q.position, &q.footprint, &mut scratch.found);
+            self.map.covering(q.position, reach, &mut scratch.found);
             counts.photons_found += scratch.found.len() as u64;
             let x = q.position.as_vec3();
             let n = q.normal.as_vec3();
             scratch.batch.clear();
             scratch.general.clear();
+            scratch.quads.clear();
+            scratch.general_quads.clear();
             let mut total = Vec3::ZERO;
             for &i in &scratch.found {
                 let p = &self.map.photons[i as usize];
@@ -195,8 +206,35 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                 if !on_query_surface(p, v, n) {
                     continue;
                 }
-                let filter = |w: Vec3| DVec2::new(p.m[0].dot(w) as f64, p.m[1].dot(w) as f64);
-                match classify(filter(v), filter(f[0]), filter(f[1])) {
+                // In double precision from the query's own (not f32-rounded) point and
+                // footprint: the filter map scales a pixel by its size over the photon's, so a
+                // photon far smaller than the pixel (a focus) would see f32's rounding of them
+                // magnified; so it is placed to within its stored position's rounding, and
+                // footprints sharing a corner split it exactly.
+                let (m0, m1) = (p.m[0].as_dvec3(), p.m[1].as_dvec3());
+                let filter = |w: DVec3| DVec2::new(m0.dot(w), m1.dot(w));
+                let s = filter(q.position - p.position.as_dvec3());
+                let (a, b) = (filter(f[0]), filter(f[1]));
+                if let Some((frame, _)) = &quad {
+                    match frame.classify(s, a, b) {
+                        QuadOverlap::None => continue,
+                        QuadOverlap::Mean(mean) => {
+                            if mean > 0.0 {
+                                counts.photons_used += 1;
+                                total += p.power * (p.inv_area * mean as f32);
+                            }
+                            continue;
+                        }
+                        QuadOverlap::General(vertices) => {
+                            scratch.quads.push(vertices);
+                            scratch.general_quads.push(i);
+                            continue;
+                        }
+                        // Too thin or folded: the parallelogram below.
+                        QuadOverlap::NotConvex => {}
+                    }
+                }
+                match classify(s, a, b) {
                     Overlap::None => {}
                     Overlap::Mean(mean) => {
                         if mean > 0.0 {
@@ -211,7 +249,14 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                 }
             }
             parallelogram_means(&mut scratch.batch, &mut scratch.means);
-            for (&i, &mean) in scratch.general.iter().zip(&scratch.means) {
+            quad_means(&mut scratch.quads, &mut scratch.quad_means);
+            let means = scratch.means.iter().chain(&scratch.quad_means);
+            for (&i, &mean) in scratch
+                .general
+                .iter()
+                .chain(&scratch.general_quads)
+                .zip(means)
+            {
                 if mean > 0.0 {
                     counts.photons_used += 1;
                     let p = &self.map.photons[i as usize];
@@ -221,6 +266,34 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             q.albedo * (FRAC_1_PI * FRAC_2_PI) * total.as_dvec3()
         })
     }
+}
+
+/// The exact footprint with corners at offsets `w` (in the plane of the first-order
+/// parallelogram `+- f[0]/2 +- f[1]/2`) as a [`QuadFrame`] in the basis `f`, and the least
+/// `g >= 1` such that the parallelogram grown by `g` holds it (for the map's range query). A
+/// perspective quadrilateral differs from its first-order parallelogram to second order, so its
+/// coordinates are near `+-1/2` and `g` near 1; `None` for a degenerate parallelogram or a
+/// quadrilateral that is not convex or lies far outside it.
+fn quad_frame(w: &[DVec3; 4], f: &[DVec3; 2]) -> Option<(QuadFrame, f64)> {
+    // Coordinates in the basis (f0, f1) from the Gram system.
+    let (g00, g01, g11) = (f[0].dot(f[0]), f[0].dot(f[1]), f[1].dot(f[1]));
+    let det = g00 * g11 - g01 * g01;
+    if det.is_nan() || det <= 1e-12 * g00 * g11 || !det.is_finite() {
+        return None;
+    }
+    let coordinates = w.map(|w| {
+        let (b0, b1) = (w.dot(f[0]), w.dot(f[1]));
+        DVec2::new((g11 * b0 - g01 * b1) / det, (g00 * b1 - g01 * b0) / det)
+    });
+    let grow = coordinates
+        .iter()
+        .fold(1.0f64, |g, c| g.max(2.0 * c.x.abs().max(c.y.abs())));
+    // A little over, for rounding.
+    let grow = grow * (1.0 + 1e-4);
+    if grow.is_nan() || grow >= 4.0 {
+        return None;
+    }
+    Some((QuadFrame::new(coordinates)?, grow))
 }
 
 #[cfg(test)]

@@ -38,6 +38,12 @@ pub struct GatherQuery {
     pub albedo: DVec3,
     /// The camera ray's footprint at the hit: the parallelogram `x +- f[0]/2 +- f[1]/2`.
     pub footprint: [DVec3; 2],
+    /// The exact view footprint where it is known, in order around it: the corners of the
+    /// pixel's (or cell's) rectangle seen through the pinhole on the hit's tangent plane (for
+    /// hits seen directly). Neighbouring pixels on one plane share these corners, so their
+    /// footprints tile it; the parallelogram `footprint` is their first-order approximation.
+    /// Only estimators that integrate the view footprint read it.
+    pub corners: Option<[DVec3; 4]>,
 }
 
 /// What gathering cost, for the statistics.

@@ -174,7 +174,7 @@ fn side_parts<T: Lane>(h: T, t0: T, t1: T) -> (T, T, T) {
 
 /// The flux of `F` through one side (see [`side_parts`]).
 #[inline(always)]
-fn side<T: Lane>(h: T, t0: T, t1: T) -> T {
+pub(crate) fn side<T: Lane>(h: T, t0: T, t1: T) -> T {
     let (line, re, im) = side_parts(h, t0, t1);
     line + T::splat(0.25) * im.atan2(re)
 }
@@ -267,6 +267,13 @@ pub fn general<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T, T) {
 #[inline(always)]
 pub fn general_one_arc<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T, T) {
     let (e, area) = sides(s0, s1, a0, a1, b0, b1);
+    (one_arc_flux(e), area)
+}
+
+/// The flux through four sides `(h, t0, t1)` of a convex polygon with one `atan2` (see
+/// [`general_one_arc`], whose argument holds for any convex quadrilateral).
+#[inline(always)]
+pub(crate) fn one_arc_flux<T: Lane>(e: [(T, T, T); 4]) -> T {
     let mut line = T::splat(0.0);
     let mut min_h = e[0].0;
     let (mut re, mut im) = (T::splat(1.0), T::splat(0.0));
@@ -282,7 +289,7 @@ pub fn general_one_arc<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T,
     let turn =
         (T::splat(1.0) - theta).where_positive_else(min_h - T::splat(0.9), T::splat(-0.5) - theta);
     let arcs = (theta + T::splat(std::f64::consts::TAU)).where_positive_else(turn, theta);
-    (line + T::splat(0.25) * arcs, area)
+    line + T::splat(0.25) * arcs
 }
 
 /// Parallelograms of circumradius up to this take [`general_one_arc`] (its product of four
@@ -411,6 +418,8 @@ fn thickened(a: DVec2, b: DVec2, min_width: f64) -> (DVec2, DVec2) {
         (a + b.perp() / lb * lambda, b)
     }
 }
+
+pub mod quad;
 
 #[cfg(test)]
 mod tests;

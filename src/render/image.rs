@@ -55,6 +55,9 @@ pub struct RenderOptions {
     pub window: Option<Window>,
 }
 
+/// A camera sample: `(pixel index in tile, x, y, cells per axis, cell [x0, y0, x1, y1])`.
+type Sample = (usize, f64, f64, u32, [f64; 4]);
+
 impl Default for RenderOptions {
     fn default() -> Self {
         RenderOptions {
@@ -292,10 +295,11 @@ impl<'a> TileRenderer<'a> {
     }
 
     /// Camera samples of a tile in 4 x 4 pixel blocks, so that each packet of 16 rays is
-    /// coherent: `(pixel index in tile, x, y, cells per axis)` in continuous pixel coordinates,
-    /// each at the options' jitter within its cell: the view grid's, or the edge grid's for a
-    /// pixel flagged in `edge`.
-    fn samples(&self, tile: Tile, edge: &[bool]) -> Vec<(usize, f64, f64, u32)> {
+    /// coherent: `(pixel index in tile, x, y, cells per axis, cell)` in continuous pixel
+    /// coordinates, each at the options' jitter within its cell `[x0, y0, x1, y1]`: the view
+    /// grid's, or the edge grid's for a pixel flagged in `edge`. (A cell's sides are computed
+    /// as `pixel + i / n` on either side, so that neighbouring cells share them exactly.)
+    fn samples(&self, tile: Tile, edge: &[bool]) -> Vec<Sample> {
         let [jx, jy] = self.options.jitter;
         let tw = tile.x1 - tile.x0;
         let mut samples = Vec::new();
@@ -309,6 +313,7 @@ impl<'a> TileRenderer<'a> {
                         } else {
                             self.options.view_grid
                         };
+                        let side = |p: u32, i: u32| p as f64 + i as f64 / n as f64;
                         for j in 0..n {
                             for i in 0..n {
                                 samples.push((
@@ -316,6 +321,7 @@ impl<'a> TileRenderer<'a> {
                                     x as f64 + (i as f64 + jx) / n as f64,
                                     y as f64 + (j as f64 + jy) / n as f64,
                                     n,
+                                    [side(x, i), side(y, j), side(x, i + 1), side(y, j + 1)],
                                 ));
                             }
                         }
@@ -342,6 +348,10 @@ impl<'a> TileRenderer<'a> {
             Vec::new()
         };
         let samples = self.samples(tile, &edge);
+        let wants_corners = self
+            .estimators
+            .iter()
+            .any(|e| e.integrates_view_footprint());
         let mut gathers = GatherCounts::default();
         let mut vertices: Vec<DiffuseVertex> = Vec::new();
         let mut radiance = [DVec3::ZERO; PACKET_WIDTH];
@@ -354,7 +364,7 @@ impl<'a> TileRenderer<'a> {
         for chunk in samples.chunks(PACKET_WIDTH) {
             let differentials: Vec<_> = chunk
                 .iter()
-                .map(|&(_, x, y, n)| camera.ray(x, y, 1.0 / n as f64))
+                .map(|&(_, x, y, n, _)| camera.ray(x, y, 1.0 / n as f64))
                 .collect();
             for (ray, diff) in rays.iter_mut().zip(&differentials) {
                 *ray = Ray::new(diff.p, diff.d);
@@ -381,11 +391,21 @@ impl<'a> TileRenderer<'a> {
             if !self.estimators.is_empty() {
                 let [jx, jy] = self.options.jitter;
                 for v in &vertices {
+                    // The cell's exact footprint where the hit is seen directly (for the
+                    // estimators that integrate over it).
+                    let corners = (wants_corners && v.depth == 0)
+                        .then(|| {
+                            let cell = chunk[v.sample].4;
+                            let n = v.hit.geometric_normal;
+                            camera.rectangle_on_plane(cell, v.hit.position, n)
+                        })
+                        .flatten();
                     let query = GatherQuery {
                         position: v.hit.position,
                         normal: facing(v.hit.geometric_normal, v.ray.d),
                         albedo: v.albedo,
                         footprint: v.ray.dp,
+                        corners,
                     };
                     // The footprint of the ray's cell, to first order: where the cell's centre
                     // ray would have hit (the hit itself when centred).

@@ -90,6 +90,34 @@ impl Camera {
         }
     }
 
+    /// The rectangle `[x0, x1] x [y0, y1]` of the image (continuous pixel coordinates) seen on
+    /// the plane through `point` with normal `normal`: where the rays through its corners meet
+    /// the plane, in the order `(x0, y0), (x1, y0), (x1, y1), (x0, y1)`. `None` where a corner's
+    /// ray runs parallel to the plane or meets it behind the eye (the plane's horizon crosses
+    /// the rectangle). Rectangles sharing corners give quadrilaterals sharing corners: they tile
+    /// the plane as the pixels tile the image.
+    pub fn rectangle_on_plane(
+        &self,
+        [x0, y0, x1, y1]: [f64; 4],
+        point: DVec3,
+        normal: DVec3,
+    ) -> Option<[DVec3; 4]> {
+        let depth = (point - self.eye).dot(normal);
+        let mut corners = [DVec3::ZERO; 4];
+        for (corner, (x, y)) in corners
+            .iter_mut()
+            .zip([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
+        {
+            let d = self.direction(x, y);
+            let t = depth / d.dot(normal);
+            if !(t > 0.0 && t.is_finite()) {
+                return None;
+            }
+            *corner = self.eye + d * t;
+        }
+        Some(corners)
+    }
+
     /// Continuous pixel coordinates where `point` projects, or `None` behind the camera.
     pub fn project(&self, point: DVec3) -> Option<(f64, f64)> {
         let v = point - self.eye;

@@ -1,0 +1,448 @@
+//! The integral of `1 - |u|^2` over the unit disc ∩ a convex quadrilateral: the exact view
+//! footprint of a pixel seen on a plane through a pinhole, of which the parallelogram of
+//! [`super`] is the first-order approximation.
+//!
+//! Why it is needed: a pinhole maps a pixel onto a plane as a perspective quadrilateral, and
+//! neighbouring pixels' quadrilaterals share their corners, so they tile the plane. The
+//! parallelograms of first-order ray differentials do not: each is centred on its own pixel's
+//! centre ray with its own edges, and neighbours overlap or leave gaps by a second-order sliver
+//! (~0.3% of a pixel on the focal caustic's floor). Light concentrated in that sliver (a caustic's
+//! focus on a pixel boundary) is counted twice or not at all.
+//!
+//! The derivation is the parallelogram's (the flux of `F(u) = (1/2 - |u|^2/4) u` through the
+//! sides of the fan triangles, see [`super`]); only the sides are given by their ends: the side
+//! from `p` to `q` of a counter-clockwise polygon has tangent `tau = (q - p) / |q - p|`, outward
+//! distance `h = p x tau` (the right normal's component) and runs over `t in [p . tau, q . tau]`.
+//! The fast paths are the parallelogram's too: inside the disc the polygon moments (about the
+//! vertices' centroid, which keeps them exact for small quadrilaterals far from the origin),
+//! the disc inside (every `h >= 1`), a separating side (some `h <= -1`).
+
+use super::{one_arc_flux, side, Lane, ONE_ARC_MAX_CIRCUMRADIUS, POINT_SIZE};
+use glam::DVec2;
+use std::f64::consts::FRAC_PI_2;
+use wide::f64x4;
+
+/// What [`classify_quad`] settles for a quadrilateral.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum QuadOverlap {
+    /// No overlap with the disc's interior: the mean is 0.
+    None,
+    /// The mean of `(1 - |u|^2)+` over the quadrilateral, in closed form.
+    Mean(f64),
+    /// Needs the general formula ([`general_quad`]) on these vertices (counter-clockwise).
+    General([DVec2; 4]),
+    /// Not a convex quadrilateral of usable width (crossed, folded or nearly flat): the caller
+    /// falls back to the parallelogram, whose thin case [`super::classify`] handles.
+    NotConvex,
+}
+
+/// The four sides of the counter-clockwise quadrilateral `(x[k], y[k])` as [`side`] takes them,
+/// `(h, t0, t1)` each, and its area.
+#[inline(always)]
+fn quad_sides<T: Lane>(x: [T; 4], y: [T; 4]) -> ([(T, T, T); 4], T) {
+    let mut sides = [(T::splat(0.0), T::splat(0.0), T::splat(0.0)); 4];
+    let mut twice_area = T::splat(0.0);
+    for k in 0..4 {
+        let (px, py, qx, qy) = (x[k], y[k], x[(k + 1) % 4], y[(k + 1) % 4]);
+        let (ex, ey) = (qx - px, qy - py);
+        let l = (ex * ex + ey * ey).sqrt();
+        let inv = T::splat(1.0) / l;
+        // t1 = q . tau = p . tau + l.
+        let t0 = (px * ex + py * ey) * inv;
+        sides[k] = ((px * ey - py * ex) * inv, t0, t0 + l);
+        // Relative to the first vertex: no cancellation for a small quadrilateral far away.
+        twice_area = twice_area + (px - x[0]) * (qy - y[0]) - (qx - x[0]) * (py - y[0]);
+    }
+    (sides, T::splat(0.5) * twice_area)
+}
+
+/// `(integral over Q ∩ D of (1 - |u|^2), area of Q)` for the convex counter-clockwise
+/// quadrilateral `Q` with vertices `(x[k], y[k])`, four `atan2`s (any size).
+#[inline(always)]
+pub fn general_quad<T: Lane>(x: [T; 4], y: [T; 4]) -> (T, T) {
+    let (e, area) = quad_sides(x, y);
+    let integral = e
+        .iter()
+        .fold(T::splat(0.0), |sum, &(h, t0, t1)| sum + side(h, t0, t1));
+    (integral, area)
+}
+
+/// [`general_quad`] with one `atan2` (as [`super::general_one_arc`]), for quadrilaterals whose
+/// vertices lie within [`ONE_ARC_MAX_CIRCUMRADIUS`] of their centroid ([`quad_takes_one_arc`]).
+#[inline(always)]
+pub fn general_quad_one_arc<T: Lane>(x: [T; 4], y: [T; 4]) -> (T, T) {
+    let (e, area) = quad_sides(x, y);
+    (one_arc_flux(e), area)
+}
+
+/// Positive where the quadrilateral takes [`general_quad_one_arc`].
+#[inline(always)]
+pub fn quad_takes_one_arc<T: Lane>(x: [T; 4], y: [T; 4]) -> T {
+    let quarter = T::splat(0.25);
+    let (cx, cy) = (
+        (x[0] + x[1] + x[2] + x[3]) * quarter,
+        (y[0] + y[1] + y[2] + y[3]) * quarter,
+    );
+    let mut r2 = T::splat(0.0);
+    for k in 0..4 {
+        let (dx, dy) = (x[k] - cx, y[k] - cy);
+        r2 = r2.max(dx * dx + dy * dy);
+    }
+    T::splat(ONE_ARC_MAX_CIRCUMRADIUS * ONE_ARC_MAX_CIRCUMRADIUS) - r2
+}
+
+/// [`general_quad_one_arc`], or [`general_quad`] where it does not serve, for one
+/// counter-clockwise quadrilateral.
+pub fn general_quad_either(v: [DVec2; 4]) -> (f64, f64) {
+    let (x, y) = (v.map(|p| p.x), v.map(|p| p.y));
+    if quad_takes_one_arc(x, y) >= 0.0 {
+        general_quad_one_arc(x, y)
+    } else {
+        general_quad(x, y)
+    }
+}
+
+/// A quadrilateral given in the coordinates `(alpha, beta)` of a basis `(a, b)`, prepared once
+/// so that its mean over many placements `s + alpha a + beta b` (one per photon, each photon's
+/// filter space giving its own `s`, `a`, `b`) costs about what a parallelogram's does: the
+/// polygon moments of the inside case are area means of `alpha`, `beta`, `alpha^2`,
+/// `alpha beta`, `beta^2`, which the linear map does not change.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct QuadFrame {
+    alpha: [f64; 4],
+    beta: [f64; 4],
+    /// Mean of the vertices' coordinates.
+    centre: DVec2,
+    /// Area means of `alpha`, `beta`, `alpha^2`, `alpha beta`, `beta^2`.
+    moments: [f64; 5],
+    /// Signed area in `(alpha, beta)` (positive counter-clockwise).
+    area: f64,
+}
+
+impl QuadFrame {
+    /// The quadrilateral with these vertices (in order, either direction), or `None` unless it
+    /// is strictly convex with finite coordinates.
+    pub fn new(v: [DVec2; 4]) -> Option<Self> {
+        if !v.iter().all(|p| p.is_finite()) {
+            return None;
+        }
+        let centre = (v[0] + v[1] + v[2] + v[3]) * 0.25;
+        // About the centre: exact for any placement of the quadrilateral.
+        let w = v.map(|p| p - centre);
+        let cross = |k: usize| w[k].perp_dot(w[(k + 1) % 4]);
+        let area = 0.5 * (0..4).map(cross).sum::<f64>();
+        let turns =
+            (0..4).map(|k| (w[(k + 1) % 4] - w[k]).perp_dot(w[(k + 2) % 4] - w[(k + 1) % 4]));
+        if area == 0.0 || area.is_nan() || !turns.into_iter().all(|t| t * area > 0.0) {
+            return None;
+        }
+        let mut sums = [0.0; 5];
+        for k in 0..4 {
+            let (p, q) = (w[k], w[(k + 1) % 4]);
+            let c = cross(k);
+            sums[0] += c * (p.x + q.x) / 6.0;
+            sums[1] += c * (p.y + q.y) / 6.0;
+            sums[2] += c * (p.x * p.x + p.x * q.x + q.x * q.x) / 12.0;
+            sums[3] += c * (p.x * q.y + 2.0 * p.x * p.y + 2.0 * q.x * q.y + q.x * p.y) / 24.0;
+            sums[4] += c * (p.y * p.y + p.y * q.y + q.y * q.y) / 12.0;
+        }
+        // Moments about the origin from those about the centre.
+        let [mx, my, mxx, mxy, myy] = sums.map(|m| m / area);
+        let (cx, cy) = (centre.x, centre.y);
+        Some(QuadFrame {
+            alpha: v.map(|p| p.x),
+            beta: v.map(|p| p.y),
+            centre,
+            moments: [
+                cx + mx,
+                cy + my,
+                mxx + 2.0 * cx * mx + cx * cx,
+                mxy + cx * my + cy * mx + cx * cy,
+                myy + 2.0 * cy * my + cy * cy,
+            ],
+            area,
+        })
+    }
+
+    /// Settles the quadrilateral `s + alpha a + beta b` against the unit disc where a closed
+    /// form does (as [`super::classify`] does for parallelograms) and prepares the rest.
+    /// Non-finite input gives [`QuadOverlap::None`].
+    #[inline]
+    pub fn classify(&self, s: DVec2, a: DVec2, b: DVec2) -> QuadOverlap {
+        let v: [DVec2; 4] = std::array::from_fn(|k| s + a * self.alpha[k] + b * self.beta[k]);
+        let c = s + a * self.centre.x + b * self.centre.y;
+        let r2 = v
+            .iter()
+            .map(|p| (*p - c).length_squared())
+            .fold(0.0, f64::max);
+        let cc = c.length_squared();
+        if !(r2.is_finite() && cc.is_finite()) {
+            return QuadOverlap::None;
+        }
+        // The bounding circle about the centre misses the disc: beyond 1 + R, without a
+        // square root ((1 + R)^2 <= 2 + 2 R^2). Most photons a gather finds end here.
+        if cc > 2.0 + 2.0 * r2 {
+            return QuadOverlap::None;
+        }
+        if 4.0 * r2 < POINT_SIZE * POINT_SIZE {
+            return QuadOverlap::Mean((1.0 - cc).max(0.0));
+        }
+        let cross = a.perp_dot(b);
+        let area = (cross * self.area).abs();
+        // So thin in filter space that the general formula's cancellation would show: the
+        // parallelogram, which is thickened, serves (as `super::MIN_WIDTH`; the diameter is
+        // at most twice the centre's distance to the farthest vertex).
+        let diameter = 2.0 * r2.sqrt();
+        if area.is_nan() || area <= super::MIN_WIDTH * diameter * diameter.min(1.0) {
+            return QuadOverlap::NotConvex;
+        }
+        if v.iter().all(|p| p.length_squared() <= 1.0) {
+            let [ma, mb, maa, mab, mbb] = self.moments;
+            let mean_u2 = s.length_squared()
+                + 2.0 * (ma * s.dot(a) + mb * s.dot(b))
+                + maa * a.length_squared()
+                + 2.0 * mab * a.dot(b)
+                + mbb * b.length_squared();
+            return QuadOverlap::Mean(1.0 - mean_u2);
+        }
+        // Beyond 1 + R from the centre: apart, though no side's line may separate them (the
+        // disc faces a corner).
+        let reach = 1.0 + r2.sqrt();
+        if cc >= reach * reach {
+            return QuadOverlap::None;
+        }
+        // Counter-clockwise in filter space.
+        let v = if cross * self.area < 0.0 {
+            [v[0], v[3], v[2], v[1]]
+        } else {
+            v
+        };
+        let mut all_outside = true;
+        for k in 0..4 {
+            let (p, q) = (v[k], v[(k + 1) % 4]);
+            let e = q - p;
+            let h = p.perp_dot(e) / e.length();
+            if h <= -1.0 {
+                return QuadOverlap::None;
+            }
+            all_outside &= h >= 1.0;
+        }
+        if all_outside {
+            return QuadOverlap::Mean(FRAC_PI_2 / area);
+        }
+        QuadOverlap::General(v)
+    }
+}
+
+/// Settles the quadrilateral with vertices `v` (in order, either direction) where a closed form
+/// does and prepares the rest: [`QuadFrame::classify`] in the unit basis.
+pub fn classify_quad(v: [DVec2; 4]) -> QuadOverlap {
+    match QuadFrame::new(v) {
+        Some(frame) => frame.classify(DVec2::ZERO, DVec2::X, DVec2::Y),
+        None if v.iter().all(|p| p.is_finite()) => QuadOverlap::NotConvex,
+        None => QuadOverlap::None,
+    }
+}
+
+/// The mean of `(1 - |u|^2)+` over the quadrilateral with vertices `v` in order (either
+/// direction), or `None` where it is not a usable convex quadrilateral
+/// ([`QuadOverlap::NotConvex`]).
+pub fn quad_mean(v: [DVec2; 4]) -> Option<f64> {
+    match classify_quad(v) {
+        QuadOverlap::None => Some(0.0),
+        QuadOverlap::Mean(m) => Some(m),
+        QuadOverlap::General(v) => {
+            let (integral, area) = general_quad_either(v);
+            Some((integral / area).max(0.0))
+        }
+        QuadOverlap::NotConvex => None,
+    }
+}
+
+/// Quadrilaterals for the general formula, structure of arrays (vertex `k`'s coordinates in
+/// columns `x[k]`, `y[k]`).
+#[derive(Debug, Clone, Default)]
+pub struct QuadBatch {
+    x: [Vec<f64>; 4],
+    y: [Vec<f64>; 4],
+    len: usize,
+}
+
+impl QuadBatch {
+    /// Empties the batch, keeping its storage.
+    pub fn clear(&mut self) {
+        for c in self.x.iter_mut().chain(self.y.iter_mut()) {
+            c.clear();
+        }
+        self.len = 0;
+    }
+
+    /// Adds a counter-clockwise convex quadrilateral (as [`QuadOverlap::General`] gives it).
+    pub fn push(&mut self, v: [DVec2; 4]) {
+        for ((x, y), p) in self.x.iter_mut().zip(&mut self.y).zip(v) {
+            x.push(p.x);
+            y.push(p.y);
+        }
+        self.len += 1;
+    }
+
+    /// Number of quadrilaterals.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether the batch is empty.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Pads to whole SIMD chunks with unit squares far from the disc.
+    fn pad(&mut self) {
+        const FAR: [(f64, f64); 4] = [(1e6, 0.0), (1e6 + 1.0, 0.0), (1e6 + 1.0, 1.0), (1e6, 1.0)];
+        while !self.x[0].len().is_multiple_of(4) {
+            for (k, (x, y)) in FAR.iter().enumerate() {
+                self.x[k].push(*x);
+                self.y[k].push(*y);
+            }
+        }
+    }
+}
+
+/// For each quadrilateral of `batch`, the mean of `(1 - |u|^2)+` over it by the general
+/// formula, four at a time in SIMD lanes (as `estimate::integrated::parallelogram_means`).
+pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>) {
+    batch.pad();
+    out.clear();
+    let load =
+        |v: &[f64], k: usize| f64x4::from(<[f64; 4]>::try_from(&v[k..k + 4]).unwrap_or([0.0; 4]));
+    for k in (0..batch.x[0].len()).step_by(4) {
+        let x = [0, 1, 2, 3].map(|j| load(&batch.x[j], k));
+        let y = [0, 1, 2, 3].map(|j| load(&batch.y[j], k));
+        let (integral, area) = if quad_takes_one_arc(x, y).simd_ge(f64x4::ZERO).all() {
+            general_quad_one_arc(x, y)
+        } else {
+            general_quad(x, y)
+        };
+        out.extend_from_slice(&(integral / area).max(f64x4::ZERO).to_array());
+    }
+    out.truncate(batch.len);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::{mean, Overlap};
+    use super::*;
+
+    fn parallelogram(s: DVec2, a: DVec2, b: DVec2) -> [DVec2; 4] {
+        [
+            s - a * 0.5 - b * 0.5,
+            s + a * 0.5 - b * 0.5,
+            s + a * 0.5 + b * 0.5,
+            s - a * 0.5 + b * 0.5,
+        ]
+    }
+
+    #[test]
+    fn a_parallelogram_as_a_quadrilateral_has_the_parallelograms_mean() {
+        for k in 0..200 {
+            let t = k as f64 * 0.173;
+            let size = 10f64.powf(-3.0 + 5.0 * ((k * 7) % 200) as f64 / 200.0);
+            let s = DVec2::new(t.sin() * 1.3, (1.7 * t).cos() * 1.1) * (1.0 + size * 0.3);
+            let a = DVec2::new(1.0 + 0.5 * t.cos(), 0.3) * size;
+            let b = DVec2::new(-0.2, 0.8 + 0.4 * (2.0 * t).sin()) * size;
+            let expected = mean(s, a, b);
+            for v in [parallelogram(s, a, b), parallelogram(s, b, a)] {
+                let got = quad_mean(v).expect("convex");
+                assert!(
+                    // Means are at most 1; near tangency the general formula's cancellation
+                    // leaves ~1e-12 where the parallelogram's test settles 0.
+                    (got - expected).abs() <= 1e-10,
+                    "{got} vs {expected} ({s:?} {a:?} {b:?}: {:?} / {:?})",
+                    classify_quad(v),
+                    super::super::classify(s, a, b)
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn the_fast_paths_agree_with_the_general_formula() {
+        // Trapezoids (the shape perspective gives) at every place about the disc.
+        for k in 0..400 {
+            let t = k as f64 * 0.0917;
+            let size = [0.05, 0.4, 1.5, 6.0][k % 4];
+            let c = DVec2::new(t.cos(), t.sin()) * (k as f64 / 400.0 * (1.5 + size));
+            let v = [
+                c + DVec2::new(-0.5, -0.5) * size,
+                c + DVec2::new(0.5, -0.4) * size,
+                c + DVec2::new(0.6, 0.55) * size,
+                c + DVec2::new(-0.45, 0.5) * size,
+            ];
+            let fast = quad_mean(v).unwrap();
+            let (integral, area) = general_quad(v.map(|p| p.x), v.map(|p| p.y));
+            let general = (integral / area).max(0.0);
+            assert!(
+                (fast - general).abs() <= 1e-10,
+                "{fast} vs {general} ({:?})",
+                classify_quad(v)
+            );
+            let (one, _) = general_quad_one_arc(v.map(|p| p.x), v.map(|p| p.y));
+            assert!(
+                (one - integral).abs() <= 1e-12 * area.max(1.0),
+                "{one} vs {integral}"
+            );
+        }
+    }
+
+    #[test]
+    fn crossed_and_flat_quadrilaterals_are_not_convex_and_bad_input_is_none() {
+        let crossed = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 1.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(0.0, 1.0),
+        ];
+        assert_eq!(classify_quad(crossed), QuadOverlap::NotConvex);
+        let flat = [
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(1.0, 1e-9),
+            DVec2::new(0.0, 1e-9),
+        ];
+        assert_eq!(classify_quad(flat), QuadOverlap::NotConvex);
+        let mut nan = flat;
+        nan[2].x = f64::NAN;
+        assert_eq!(classify_quad(nan), QuadOverlap::None);
+        assert!(matches!(
+            super::super::classify(DVec2::ZERO, DVec2::X, DVec2::Y),
+            Overlap::Mean(_)
+        ));
+    }
+
+    #[test]
+    fn simd_lanes_equal_the_scalar_formula() {
+        let mut batch = QuadBatch::default();
+        let mut expected = Vec::new();
+        for k in 0..23 {
+            let t = k as f64 * 0.37;
+            let c = DVec2::new(t.sin() * 1.2, t.cos() * 0.9);
+            let s = 0.3 + t;
+            let v = [
+                c + DVec2::new(-0.5, -0.5) * s,
+                c + DVec2::new(0.5, -0.45) * s,
+                c + DVec2::new(0.55, 0.5) * s,
+                c + DVec2::new(-0.5, 0.45) * s,
+            ];
+            batch.push(v);
+            let (integral, area) = general_quad_either(v);
+            expected.push((integral / area).max(0.0));
+        }
+        let mut simd = Vec::new();
+        quad_means(&mut batch, &mut simd);
+        assert_eq!(simd.len(), 23);
+        for (a, b) in simd.iter().zip(&expected) {
+            assert!((a - b).abs() <= 1e-14, "{a} {b}");
+        }
+        assert!(expected.iter().any(|&m| m > 0.1) && expected.iter().any(|&m| m < 0.1));
+    }
+}

@@ -1,0 +1,301 @@
+//! The exact view footprint (`GatherQuery::corners`, `geometry::disc_integral::quad`): the
+//! quadrilateral's closed form against a brute-force quadrature, and power conservation over
+//! the footprints of a perspective camera's pixels on a plane, where first-order parallelograms
+//! overlap and leave gaps.
+
+use glam::{DVec2, DVec3};
+use photondiff::estimate::integrated::IntegratedEstimate;
+use photondiff::estimate::{GatherCounts, GatherQuery, RadianceEstimator};
+use photondiff::geometry::disc_integral::quad::{classify_quad, quad_mean, QuadOverlap};
+use photondiff::photons::footprint::{footprint, FootprintLimits, Guards};
+use photondiff::photons::map::{PathClass, Photon, PhotonMap};
+use photondiff::scene::camera::Camera;
+use proptest::prelude::*;
+use std::f64::consts::PI;
+
+/// Gauss-Legendre nodes and weights on [-1, 1], 5 points.
+const GL5: [(f64, f64); 5] = [
+    (0.0, 0.568_888_888_888_888_9),
+    (-0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
+    (0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
+    (-0.906_179_845_938_664, 0.236_926_885_056_189_1),
+    (0.906_179_845_938_664, 0.236_926_885_056_189_1),
+];
+
+/// The mean of `(1 - |u|^2)+` over the convex polygon `v` by Fubini, independently of the
+/// divergence theorem: for each `x` the exact integral over the `y`-interval inside both the
+/// polygon and the disc; over `x`, composite Gauss-Legendre between the kinks (vertices, and
+/// where the sides cross the circle), in a variable that smooths the ends.
+fn quadrature(v: &[DVec2; 4], panels: usize) -> f64 {
+    let sides: Vec<(DVec2, DVec2)> = (0..4).map(|k| (v[k], v[(k + 1) % 4])).collect();
+    let inner = |x: f64| -> f64 {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for &(p, q) in &sides {
+            let (a, b) = if p.x <= q.x { (p, q) } else { (q, p) };
+            if x < a.x || x > b.x || a.x == b.x {
+                continue;
+            }
+            let y = a.y + (x - a.x) * (b.y - a.y) / (b.x - a.x);
+            lo = lo.min(y);
+            hi = hi.max(y);
+        }
+        let w = (1.0 - x * x).max(0.0).sqrt();
+        let (y0, y1) = (lo.max(-w), hi.min(w));
+        if y0 >= y1 {
+            return 0.0;
+        }
+        (1.0 - x * x) * (y1 - y0) - (y1.powi(3) - y0.powi(3)) / 3.0
+    };
+    let xmin = v
+        .iter()
+        .map(|p| p.x)
+        .fold(f64::INFINITY, f64::min)
+        .max(-1.0);
+    let xmax = v
+        .iter()
+        .map(|p| p.x)
+        .fold(f64::NEG_INFINITY, f64::max)
+        .min(1.0);
+    if xmin >= xmax {
+        return 0.0;
+    }
+    let mut cuts = vec![xmin, xmax];
+    for &(p, q) in &sides {
+        cuts.push(p.x);
+        // Where the side p + t (q - p) crosses the circle.
+        let e = q - p;
+        let (aa, bb, cc) = (e.dot(e), 2.0 * p.dot(e), p.dot(p) - 1.0);
+        let d = bb * bb - 4.0 * aa * cc;
+        if d > 0.0 {
+            for t in [(-bb - d.sqrt()) / (2.0 * aa), (-bb + d.sqrt()) / (2.0 * aa)] {
+                if (0.0..=1.0).contains(&t) {
+                    cuts.push(p.x + t * e.x);
+                }
+            }
+        }
+    }
+    cuts.retain(|&c| c >= xmin && c <= xmax);
+    cuts.sort_by(f64::total_cmp);
+    let mut sum = 0.0;
+    for w in cuts.windows(2) {
+        let h = PI / panels as f64;
+        for k in 0..panels {
+            let mid = (k as f64 + 0.5) * h;
+            for (x, wt) in GL5 {
+                let theta = mid + 0.5 * h * x;
+                let at = w[0] + (w[1] - w[0]) * 0.5 * (1.0 - theta.cos());
+                let jacobian = (w[1] - w[0]) * 0.5 * theta.sin();
+                sum += wt * 0.5 * h * jacobian * inner(at);
+            }
+        }
+    }
+    let area = 0.5
+        * (0..4)
+            .map(|k| (v[k] - v[0]).perp_dot(v[(k + 1) % 4] - v[0]))
+            .sum::<f64>()
+            .abs();
+    sum / area
+}
+
+/// A random convex quadrilateral: a parallelogram of size `10^log_size` (edge `a`, edge `b` at
+/// `shear` from it, `aspect` times as long) with each corner moved by up to `warp` of the
+/// shorter edge (a perspective view's trapezoids and more), centred `reach` times the distance
+/// at which it stops touching the disc.
+fn quad(log_size: std::ops::Range<f64>) -> impl Strategy<Value = [DVec2; 4]> {
+    (
+        log_size,
+        0.05f64..1.0,
+        0.0..2.0 * PI,
+        0.2f64..PI - 0.2,
+        0.0f64..1.1,
+        0.0..2.0 * PI,
+        prop::array::uniform8(-1.0f64..1.0),
+    )
+        .prop_map(|(log_size, aspect, theta, shear, reach, dir, warp)| {
+            let la = 10f64.powf(log_size);
+            let a = DVec2::from_angle(theta) * la;
+            let b = DVec2::from_angle(theta + shear) * la * aspect;
+            // Moves within 15% of the narrowest width keep it convex.
+            let width = a.perp_dot(b).abs() / la.max(la * aspect);
+            let corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
+            let mut v = [DVec2::ZERO; 4];
+            for (k, (x, y)) in corners.into_iter().enumerate() {
+                let moved = DVec2::new(warp[2 * k], warp[2 * k + 1]) * 0.15 * width;
+                v[k] = a * x + b * y + moved;
+            }
+            let radius = v.iter().map(|p| p.length()).fold(0.0, f64::max);
+            let s = DVec2::from_angle(dir) * reach * (1.0 + radius);
+            v.map(|p| p + s)
+        })
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(1500))]
+
+    #[test]
+    fn the_quadrilaterals_closed_form_equals_quadrature(
+        v in prop_oneof![
+            quad(-3.0..-1.0), // photon much larger than the pixel
+            quad(-1.0..0.7),  // comparable
+            quad(0.7..3.0),   // photon much smaller than the pixel
+        ]
+    ) {
+        let m = quad_mean(v);
+        prop_assert!(m.is_some(), "{:?}: {:?}", v, classify_quad(v));
+        let m = m.unwrap();
+        let q = quadrature(&v, 64);
+        prop_assert!(m.is_finite() && m >= 0.0);
+        // The general formula's rounding: about 1e-16 of its side terms over the area.
+        let size = v.iter().map(|p| (*p - v[0]).length()).fold(0.0, f64::max);
+        let area = 0.5 * (v[2] - v[0]).perp_dot(v[3] - v[1]).abs();
+        let rounding = 1e-14 * size.min(1.0) / area;
+        prop_assert!(
+            (m - q).abs() <= 1e-9 * q + rounding,
+            "closed form {} vs quadrature {} ({:?})", m, q, classify_quad(v)
+        );
+        // Either direction around it.
+        let reversed = quad_mean([v[0], v[3], v[2], v[1]]).unwrap();
+        prop_assert!((reversed - m).abs() <= 1e-12 + 1e-12 * m);
+    }
+}
+
+#[test]
+fn folded_and_crossed_quadrilaterals_are_not_taken() {
+    let crossed = [
+        DVec2::new(0.0, 0.0),
+        DVec2::new(0.5, 0.5),
+        DVec2::new(0.5, 0.0),
+        DVec2::new(0.0, 0.5),
+    ];
+    assert_eq!(classify_quad(crossed), QuadOverlap::NotConvex);
+    let dented = [
+        DVec2::new(0.0, 0.0),
+        DVec2::new(0.5, 0.0),
+        DVec2::new(0.1, 0.1),
+        DVec2::new(0.0, 0.5),
+    ];
+    assert_eq!(classify_quad(dented), QuadOverlap::NotConvex);
+    assert_eq!(quad_mean(dented), None);
+}
+
+fn floor_photon(position: DVec3, a: DVec3, b: DVec3, power: f64) -> Photon {
+    let limits = FootprintLimits {
+        min_radius: 1e-12,
+        max_radius: 1e9,
+        max_anisotropy: 1e9,
+    };
+    let f = footprint(a, b, DVec3::Y, &limits, 1.0, &mut Guards::default());
+    Photon::new(position, DVec3::Y, -DVec3::Y, DVec3::splat(power), &f)
+}
+
+/// Sums the estimate times each pixel's footprint area over the pixels around `photon` on the
+/// floor `y = 0`, seen obliquely through a pinhole: with the exact footprints (`exact`) or
+/// their first-order parallelograms.
+fn power_over_pixels(camera: &Camera, photon: Photon, exact: bool) -> f64 {
+    let map = PhotonMap::new(PathClass::Caustic, vec![photon], 1, Guards::default());
+    let estimate = IntegratedEstimate { map: &map };
+    let r = photon.radius as f64 * 1.5;
+    let corners = [(-r, -r), (r, -r), (r, r), (-r, r)]
+        .map(|(x, z)| camera.project(photon.position.as_dvec3() + DVec3::new(x, 0.0, z)));
+    let (mut lo, mut hi) = (DVec2::INFINITY, DVec2::NEG_INFINITY);
+    for c in corners {
+        let c = DVec2::from(c.expect("in front of the camera"));
+        (lo, hi) = (lo.min(c), hi.max(c));
+    }
+    let (lo, hi) = ((lo - 2.0).floor(), (hi + 2.0).ceil());
+    let mut counts = GatherCounts::default();
+    let mut power = 0.0;
+    for y in lo.y as i64..hi.y as i64 {
+        for x in lo.x as i64..hi.x as i64 {
+            let (x, y) = (x as f64, y as f64);
+            let ray = camera.ray(x + 0.5, y + 0.5, 1.0);
+            let at = ray.transfer(-ray.p.y / ray.d.y, DVec3::Y);
+            let quad = camera
+                .rectangle_on_plane([x, y, x + 1.0, y + 1.0], at.p, DVec3::Y)
+                .expect("the floor is in front");
+            let area = 0.5 * (quad[2] - quad[0]).cross(quad[3] - quad[1]).length();
+            let q = GatherQuery {
+                position: at.p,
+                normal: DVec3::Y,
+                albedo: DVec3::splat(PI),
+                footprint: at.dp,
+                corners: exact.then_some(quad),
+            };
+            power += estimate.radiance(&q, &mut counts).x * area;
+        }
+    }
+    power
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// A photon anywhere on an obliquely seen floor, from a thousandth of a pixel's footprint
+    /// to several footprints across: the estimate times each pixel's exact footprint area sums
+    /// to its power over the pixels. (With first-order parallelograms it does not: they overlap
+    /// and leave gaps along pixel boundaries.)
+    #[test]
+    fn power_is_conserved_over_a_perspective_views_pixels(
+        log_radius in -4.5f64..-1.0,
+        aspect in 0.3f64..1.0,
+        angle in 0.0..PI,
+        at in (-0.4f64..0.4, -0.4f64..0.4),
+        on_a_corner in any::<bool>(),
+    ) {
+        let camera = Camera::look_at(
+            DVec3::new(0.3, 2.0, 3.0),
+            DVec3::ZERO,
+            DVec3::Y,
+            40.0,
+            160,
+            120,
+        )
+        .unwrap();
+        let mut position = DVec3::new(at.0, 0.0, at.1);
+        if on_a_corner {
+            // On the corner the pixels around it share: where slivers of neighbouring
+            // parallelograms overlap.
+            let (px, py) = camera.project(position).unwrap();
+            let (px, py) = (px.round(), py.round());
+            let ray = camera.ray(px, py, 1.0);
+            position = ray.p + ray.d * (-ray.p.y / ray.d.y);
+        }
+        let radius = 10f64.powf(log_radius);
+        let a = DVec3::new(angle.cos(), 0.0, angle.sin()) * radius;
+        let b = DVec3::new(-angle.sin(), 0.0, angle.cos()) * radius * aspect;
+        let photon = floor_photon(position, a, b, 2.5);
+        let power = power_over_pixels(&camera, photon, true);
+        prop_assert!((power - 2.5).abs() <= 1e-6 * 2.5, "{} of 2.5 W", power);
+    }
+}
+
+#[test]
+fn first_order_parallelograms_miscount_a_photon_on_a_pixel_corner() {
+    // What the exact footprints mend: a photon far smaller than a pixel on the corner four
+    // pixels share is counted by the overlapping first-order parallelograms more than once
+    // (or by none where they leave a gap).
+    let camera = Camera::look_at(
+        DVec3::new(0.3, 2.0, 3.0),
+        DVec3::ZERO,
+        DVec3::Y,
+        40.0,
+        160,
+        120,
+    )
+    .unwrap();
+    for k in 0..12 {
+        let t = k as f64;
+        let at = DVec3::new(0.6 * (0.7 * t).sin(), 0.0, 0.5 * (1.3 * t).cos());
+        let (px, py) = camera.project(at).unwrap();
+        let ray = camera.ray(px.round(), py.round(), 1.0);
+        let position = ray.p + ray.d * (-ray.p.y / ray.d.y);
+        let photon = floor_photon(position, DVec3::X * 1e-5, DVec3::Z * 1e-5, 2.5);
+        let exact = power_over_pixels(&camera, photon, true);
+        let first_order = power_over_pixels(&camera, photon, false);
+        assert!((exact - 2.5).abs() <= 1e-6 * 2.5, "{px} {py}: {exact}");
+        assert!(
+            (first_order - 2.5).abs() > 0.1 * 2.5,
+            "{px} {py}: {first_order}"
+        );
+    }
+}
