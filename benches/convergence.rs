@@ -204,7 +204,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "over-an-edge",
         "glass-through-glass",
     ];
-    if !["all", "canonical", "stress"].contains(&which.as_str()) && !stress.contains(&which.as_str())
+    if !["all", "canonical", "stress"].contains(&which.as_str())
+        && !stress.contains(&which.as_str())
     {
         return Err(format!(
             "PHOTONDIFF_SCENES={which}: expected canonical, stress, all or one of {}",

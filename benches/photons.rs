@@ -139,7 +139,7 @@ fn main() {
                         normal: DVec3::Y,
                         albedo: DVec3::splat(0.75),
                         footprint: [DVec3::ZERO; 2],
-                        corners: None,
+                        exact: None,
                     });
                 }
             }

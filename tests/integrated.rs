@@ -289,7 +289,7 @@ proptest! {
                     normal: DVec3::Y,
                     albedo: DVec3::splat(PI),
                     footprint,
-                    corners: None,
+                    exact: None,
                 };
                 power += estimate.radiance(&q, &mut counts).x * cell;
             }
@@ -341,7 +341,7 @@ fn a_vanishing_view_footprint_gives_the_photon_differential_estimate() {
                     normal: DVec3::Y,
                     albedo: DVec3::splat(0.75),
                     footprint: at.dp,
-                    corners: None,
+                    exact: None,
                 },
                 &mut c,
             );
@@ -351,7 +351,7 @@ fn a_vanishing_view_footprint_gives_the_photon_differential_estimate() {
                     normal: DVec3::Y,
                     albedo: DVec3::splat(0.75),
                     footprint: at.dp.map(|f| f * scale),
-                    corners: None,
+                    exact: None,
                 };
                 let v = integrated.radiance(&q, &mut c);
                 assert!(
@@ -457,7 +457,7 @@ fn the_image_is_multisampling_in_the_limit() {
                     normal: DVec3::Y,
                     albedo: DVec3::splat(0.75),
                     footprint: transfer_to(&ray, &hit).dp,
-                    corners: None,
+                    exact: None,
                 };
                 queries.push((integrated.radiance(&q, &mut c).x, q));
             }

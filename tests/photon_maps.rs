@@ -136,7 +136,7 @@ fn photon_differential_irradiance_matches_a_point_light() {
                 normal: DVec3::Y,
                 albedo: DVec3::splat(PI),
                 footprint: [DVec3::ZERO; 2],
-                corners: None,
+                exact: None,
             };
             let e = estimate.radiance(&query, &mut gathers);
             eprintln!("{x:?} {:.4}", e.x / analytic - 1.0);

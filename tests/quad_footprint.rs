@@ -1,11 +1,11 @@
-//! The exact view footprint (`GatherQuery::corners`, `geometry::disc_integral::quad`): the
+//! The exact view footprint (`GatherQuery::exact`, `geometry::disc_integral::quad`): the
 //! quadrilateral's closed form against a brute-force quadrature, and power conservation over
 //! the footprints of a perspective camera's pixels on a plane, where first-order parallelograms
 //! overlap and leave gaps.
 
 use glam::{DVec2, DVec3};
 use photondiff::estimate::integrated::IntegratedEstimate;
-use photondiff::estimate::{GatherCounts, GatherQuery, RadianceEstimator};
+use photondiff::estimate::{ExactFootprint, GatherCounts, GatherQuery, RadianceEstimator};
 use photondiff::geometry::disc_integral::quad::{classify_quad, quad_mean, QuadOverlap};
 use photondiff::photons::footprint::{footprint, FootprintLimits, Guards};
 use photondiff::photons::map::{PathClass, Photon, PhotonMap};
@@ -219,7 +219,7 @@ fn power_over_pixels(camera: &Camera, photon: Photon, exact: bool) -> f64 {
                 normal: DVec3::Y,
                 albedo: DVec3::splat(PI),
                 footprint: at.dp,
-                corners: exact.then_some(quad),
+                exact: exact.then(|| ExactFootprint::new(&quad, at.p, &at.dp).unwrap()),
             };
             power += estimate.radiance(&q, &mut counts).x * area;
         }

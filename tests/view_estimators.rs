@@ -64,7 +64,7 @@ fn caustic_queries(footprint_scale: f64) -> (PhotonMap, Vec<GatherQuery>) {
                 normal: DVec3::Y,
                 albedo: DVec3::splat(0.75),
                 footprint: at.dp.map(|f| f * footprint_scale),
-                corners: None,
+                exact: None,
             });
         }
     }

@@ -178,7 +178,7 @@ impl FinalGather<'_> {
             normal: n,
             albedo,
             footprint: [DVec3::ZERO; 2],
-            corners: None,
+            exact: None,
         };
         let caustic = PhotonDifferentialEstimate { map: near.caustic }.radiance(&query, counts);
         let m = near.rays.max(1);

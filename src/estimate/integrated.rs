@@ -20,7 +20,7 @@
 //! ([`PhotonMap::covering`]), as the multi-sampled estimate does.
 
 use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
-use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadFrame, QuadOverlap};
+use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadOverlap};
 use crate::geometry::disc_integral::{
     classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
 };
@@ -184,10 +184,7 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
         };
         // The exact footprint (its corners as offsets from the query point) where the query
         // has it, and the parallelogram, grown to hold it, that the map is asked about.
-        let quad = q.corners.and_then(|c| {
-            let (frame, grow) = quad_frame(&c.map(|c| c - q.position), &q.footprint)?;
-            Some((frame, q.footprint.map(|f| f * grow)))
-        });
+        let quad = q.exact.map(|e| (e.frame, q.footprint.map(|f| f * e.grow)));
         let reach = quad.as_ref().map_or(&q.footprint, |(_, f)| f);
         SCRATCH.with(|scratch| {
             let scratch = &mut *scratch.borrow_mut();
@@ -266,34 +263,6 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             q.albedo * (FRAC_1_PI * FRAC_2_PI) * total.as_dvec3()
         })
     }
-}
-
-/// The exact footprint with corners at offsets `w` (in the plane of the first-order
-/// parallelogram `+- f[0]/2 +- f[1]/2`) as a [`QuadFrame`] in the basis `f`, and the least
-/// `g >= 1` such that the parallelogram grown by `g` holds it (for the map's range query). A
-/// perspective quadrilateral differs from its first-order parallelogram to second order, so its
-/// coordinates are near `+-1/2` and `g` near 1; `None` for a degenerate parallelogram or a
-/// quadrilateral that is not convex or lies far outside it.
-fn quad_frame(w: &[DVec3; 4], f: &[DVec3; 2]) -> Option<(QuadFrame, f64)> {
-    // Coordinates in the basis (f0, f1) from the Gram system.
-    let (g00, g01, g11) = (f[0].dot(f[0]), f[0].dot(f[1]), f[1].dot(f[1]));
-    let det = g00 * g11 - g01 * g01;
-    if det.is_nan() || det <= 1e-12 * g00 * g11 || !det.is_finite() {
-        return None;
-    }
-    let coordinates = w.map(|w| {
-        let (b0, b1) = (w.dot(f[0]), w.dot(f[1]));
-        DVec2::new((g11 * b0 - g01 * b1) / det, (g00 * b1 - g01 * b0) / det)
-    });
-    let grow = coordinates
-        .iter()
-        .fold(1.0f64, |g, c| g.max(2.0 * c.x.abs().max(c.y.abs())));
-    // A little over, for rounding.
-    let grow = grow * (1.0 + 1e-4);
-    if grow.is_nan() || grow >= 4.0 {
-        return None;
-    }
-    Some((QuadFrame::new(coordinates)?, grow))
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@
 //! map. [`select`] turns the command line's choice into estimators over the photon maps.
 
 pub mod coplanar;
+pub mod exact_footprint;
 pub mod final_gather;
 pub mod integrated;
 pub mod jensen;
@@ -15,6 +16,7 @@ pub mod pd;
 pub mod select;
 
 pub use coplanar::CoplanarEstimate;
+pub use exact_footprint::ExactFootprint;
 pub use final_gather::FinalGather;
 pub use integrated::IntegratedEstimate;
 pub use jensen::JensenEstimate;
@@ -38,12 +40,12 @@ pub struct GatherQuery {
     pub albedo: DVec3,
     /// The camera ray's footprint at the hit: the parallelogram `x +- f[0]/2 +- f[1]/2`.
     pub footprint: [DVec3; 2],
-    /// The exact view footprint where it is known, in order around it: the corners of the
-    /// pixel's (or cell's) rectangle seen through the pinhole on the hit's tangent plane (for
-    /// hits seen directly). Neighbouring pixels on one plane share these corners, so their
+    /// The exact view footprint where it is known: the quadrilateral of the pixel's (or
+    /// cell's) corner rays on the hit's tangent plane, for hits seen directly
+    /// ([`ExactFootprint`]). Neighbouring pixels on one plane share these corners, so their
     /// footprints tile it; the parallelogram `footprint` is their first-order approximation.
     /// Only estimators that integrate the view footprint read it.
-    pub corners: Option<[DVec3; 4]>,
+    pub exact: Option<ExactFootprint>,
 }
 
 /// What gathering cost, for the statistics.

@@ -6,7 +6,7 @@
 //! number of threads.
 
 use crate::embree::{self, Hit, Ray, PACKET_WIDTH};
-use crate::estimate::{GatherCounts, GatherQuery, RadianceEstimator};
+use crate::estimate::{ExactFootprint, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::surface::facing;
 use crate::render::camera_path::{DiffuseVertex, PathTally, ViewPaths};
 use crate::render::direct_light::DirectLight;
@@ -348,7 +348,7 @@ impl<'a> TileRenderer<'a> {
             Vec::new()
         };
         let samples = self.samples(tile, &edge);
-        let wants_corners = self
+        let wants_exact = self
             .estimators
             .iter()
             .any(|e| e.integrates_view_footprint());
@@ -391,27 +391,26 @@ impl<'a> TileRenderer<'a> {
             if !self.estimators.is_empty() {
                 let [jx, jy] = self.options.jitter;
                 for v in &vertices {
-                    // The cell's exact footprint where the hit is seen directly (for the
-                    // estimators that integrate over it).
-                    let corners = (wants_corners && v.depth == 0)
-                        .then(|| {
-                            let cell = chunk[v.sample].4;
-                            let n = v.hit.geometric_normal;
-                            camera.rectangle_on_plane(cell, v.hit.position, n)
-                        })
-                        .flatten();
                     let query = GatherQuery {
                         position: v.hit.position,
                         normal: facing(v.hit.geometric_normal, v.ray.d),
                         albedo: v.albedo,
                         footprint: v.ray.dp,
-                        corners,
+                        exact: None,
                     };
                     // The footprint of the ray's cell, to first order: where the cell's centre
                     // ray would have hit (the hit itself when centred).
                     let mut centred = query;
                     if [jx, jy] != [0.5, 0.5] {
                         centred.position -= v.ray.dp[0] * (jx - 0.5) + v.ray.dp[1] * (jy - 0.5);
+                    }
+                    // The cell's exact footprint where the hit is seen directly, once for
+                    // every estimator that integrates over it.
+                    if wants_exact && v.depth == 0 {
+                        let (cell, n) = (chunk[v.sample].4, v.hit.geometric_normal);
+                        centred.exact = camera
+                            .rectangle_on_plane(cell, v.hit.position, n)
+                            .and_then(|c| ExactFootprint::new(&c, centred.position, &v.ray.dp));
                     }
                     for (k, estimator) in self.estimators.iter().enumerate() {
                         let at = if estimator.integrates_view_footprint() {

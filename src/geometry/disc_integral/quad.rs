@@ -113,6 +113,8 @@ pub struct QuadFrame {
     beta: [f64; 4],
     /// Mean of the vertices' coordinates.
     centre: DVec2,
+    /// The largest squared distance of a vertex from `centre`.
+    spread2: f64,
     /// Area means of `alpha`, `beta`, `alpha^2`, `alpha beta`, `beta^2`.
     moments: [f64; 5],
     /// Signed area in `(alpha, beta)` (positive counter-clockwise).
@@ -153,6 +155,7 @@ impl QuadFrame {
             alpha: v.map(|p| p.x),
             beta: v.map(|p| p.y),
             centre,
+            spread2: w.iter().map(|w| w.length_squared()).fold(0.0, f64::max),
             moments: [
                 cx + mx,
                 cy + my,
@@ -169,12 +172,11 @@ impl QuadFrame {
     /// Non-finite input gives [`QuadOverlap::None`].
     #[inline]
     pub fn classify(&self, s: DVec2, a: DVec2, b: DVec2) -> QuadOverlap {
-        let v: [DVec2; 4] = std::array::from_fn(|k| s + a * self.alpha[k] + b * self.beta[k]);
         let c = s + a * self.centre.x + b * self.centre.y;
-        let r2 = v
-            .iter()
-            .map(|p| (*p - c).length_squared())
-            .fold(0.0, f64::max);
+        // A bound on the squared circumradius about c: |alpha a + beta b|^2 <= (alpha^2 +
+        // beta^2)(|a|^2 + |b|^2). (The tests below only need an upper bound.)
+        let (aa, bb) = (a.length_squared(), b.length_squared());
+        let r2 = self.spread2 * (aa + bb);
         let cc = c.length_squared();
         if !(r2.is_finite() && cc.is_finite()) {
             return QuadOverlap::None;
@@ -187,29 +189,29 @@ impl QuadFrame {
         if 4.0 * r2 < POINT_SIZE * POINT_SIZE {
             return QuadOverlap::Mean((1.0 - cc).max(0.0));
         }
-        let cross = a.perp_dot(b);
-        let area = (cross * self.area).abs();
-        // So thin in filter space that the general formula's cancellation would show: the
-        // parallelogram, which is thickened, serves (as `super::MIN_WIDTH`; the diameter is
-        // at most twice the centre's distance to the farthest vertex).
-        let diameter = 2.0 * r2.sqrt();
-        if area.is_nan() || area <= super::MIN_WIDTH * diameter * diameter.min(1.0) {
-            return QuadOverlap::NotConvex;
-        }
+        let v: [DVec2; 4] = std::array::from_fn(|k| s + a * self.alpha[k] + b * self.beta[k]);
         if v.iter().all(|p| p.length_squared() <= 1.0) {
             let [ma, mb, maa, mab, mbb] = self.moments;
             let mean_u2 = s.length_squared()
                 + 2.0 * (ma * s.dot(a) + mb * s.dot(b))
-                + maa * a.length_squared()
+                + maa * aa
                 + 2.0 * mab * a.dot(b)
-                + mbb * b.length_squared();
+                + mbb * bb;
             return QuadOverlap::Mean(1.0 - mean_u2);
         }
         // Beyond 1 + R from the centre: apart, though no side's line may separate them (the
         // disc faces a corner).
-        let reach = 1.0 + r2.sqrt();
-        if cc >= reach * reach {
+        let r = r2.sqrt();
+        if cc >= (1.0 + r) * (1.0 + r) {
             return QuadOverlap::None;
+        }
+        let cross = a.perp_dot(b);
+        let area = (cross * self.area).abs();
+        // So thin in filter space that the general formula's cancellation would show: the
+        // parallelogram, which is thickened, serves (as `super::MIN_WIDTH`; the diameter is
+        // at most 2 R).
+        if area.is_nan() || area <= super::MIN_WIDTH * 2.0 * r * (2.0 * r).min(1.0) {
+            return QuadOverlap::NotConvex;
         }
         // Counter-clockwise in filter space.
         let v = if cross * self.area < 0.0 {
@@ -403,13 +405,21 @@ mod tests {
             DVec2::new(0.0, 1.0),
         ];
         assert_eq!(classify_quad(crossed), QuadOverlap::NotConvex);
+        // Flat across the circle: the parallelogram's thickening serves; inside the disc the
+        // polygon moments hold whatever the width.
         let flat = [
-            DVec2::new(0.0, 0.0),
-            DVec2::new(1.0, 0.0),
-            DVec2::new(1.0, 1e-9),
-            DVec2::new(0.0, 1e-9),
+            DVec2::new(0.5, 0.0),
+            DVec2::new(1.5, 0.0),
+            DVec2::new(1.5, 1e-9),
+            DVec2::new(0.5, 1e-9),
         ];
         assert_eq!(classify_quad(flat), QuadOverlap::NotConvex);
+        let inside = flat.map(|p| p * 0.5);
+        let expected = 1.0 - (0.25f64.powi(3) - 0.75f64.powi(3)) / (3.0 * (0.25 - 0.75));
+        match classify_quad(inside) {
+            QuadOverlap::Mean(m) => assert!((m - expected).abs() < 1e-12, "{m} vs {expected}"),
+            other => panic!("{other:?}"),
+        }
         let mut nan = flat;
         nan[2].x = f64::NAN;
         assert_eq!(classify_quad(nan), QuadOverlap::None);
