@@ -299,3 +299,75 @@ fn first_order_parallelograms_miscount_a_photon_on_a_pixel_corner() {
         );
     }
 }
+
+/// Renders `scene` (TOML text) with `args` through the command line; the statistics JSON.
+fn render_stats(scene: &str, args: &[&str]) -> serde_json::Value {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, scene).unwrap();
+    let stats = dir.path().join("stats.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("render")
+        .arg(&path)
+        .arg("-o")
+        .arg(dir.path().join("image.exr"))
+        .arg("--stats-json")
+        .arg(&stats)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
+}
+
+#[test]
+fn every_gather_at_a_directly_seen_hit_takes_the_exact_footprint() {
+    // A floor under a point light, seen obliquely: every camera ray's first hit is diffuse
+    // and seen directly, so every gather of `integrated` (the default; both maps, every pass,
+    // the view grid's cells alike) integrates over the exact footprint, and
+    // the estimators that do not read it get none.
+    let scene = r#"
+[camera]
+eye = [0.5, 2.0, 3.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 40.0
+width = 48
+height = 36
+
+[materials.floor]
+type = "diffuse"
+albedo = [0.7, 0.7, 0.7]
+
+[[lights]]
+type = "point"
+position = [0.0, 3.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+
+[[shapes]]
+type = "quad"
+corner = [-50.0, 0.0, 50.0]
+edge_u = [100.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -100.0]
+material = "floor"
+"#;
+    for args in [
+        &["--passes", "2"][..],
+        &["--passes", "1", "--view-grid", "2"][..],
+    ] {
+        let json = render_stats(scene, args);
+        let (gathers, exact) = (
+            json["gathers"]["gathers"].as_u64().unwrap(),
+            json["gathers"]["exact_footprints"].as_u64().unwrap(),
+        );
+        assert!(gathers >= 2 * 48 * 36, "{args:?}: {gathers}");
+        assert_eq!(exact, gathers, "{args:?}");
+    }
+    let json = render_stats(scene, &["--estimator", "multisampled"]);
+    assert!(json["gathers"]["gathers"].as_u64().unwrap() > 0);
+    assert_eq!(json["gathers"]["exact_footprints"].as_u64().unwrap(), 0);
+}

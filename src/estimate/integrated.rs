@@ -175,6 +175,10 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
         true
     }
 
+    fn reads_exact_footprint(&self) -> bool {
+        true
+    }
+
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
         counts.gathers += 1;
         let f = if q.footprint[0].is_finite() && q.footprint[1].is_finite() {
@@ -186,6 +190,7 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
         // has it, and the parallelogram, grown to hold it, that the map is asked about.
         let quad = q.exact.map(|e| (e.frame, q.footprint.map(|f| f * e.grow)));
         let reach = quad.as_ref().map_or(&q.footprint, |(_, f)| f);
+        counts.exact_footprints += u64::from(quad.is_some());
         SCRATCH.with(|scratch| {
             let scratch = &mut *scratch.borrow_mut();
             self.map.covering(q.position, reach, &mut scratch.found);

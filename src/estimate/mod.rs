@@ -64,6 +64,9 @@ pub struct GatherCounts {
     pub gather_rays: u64,
     /// Gather rays that landed close by and went a bounce further (`--gather-near`).
     pub near_gathers: u64,
+    /// Gathers (counted in `gathers`) that integrated over the exact view footprint
+    /// ([`GatherQuery::exact`]) rather than its first-order parallelogram.
+    pub exact_footprints: u64,
 }
 
 impl GatherCounts {
@@ -75,6 +78,7 @@ impl GatherCounts {
         self.final_gathers += other.final_gathers;
         self.gather_rays += other.gather_rays;
         self.near_gathers += other.near_gathers;
+        self.exact_footprints += other.exact_footprints;
     }
 }
 
@@ -88,6 +92,12 @@ pub trait RadianceEstimator: Sync {
     /// cell's centre would be: the jitter serves visibility and direct light, and the
     /// footprint stays the box filter's (see `render::passes`).
     fn integrates_view_footprint(&self) -> bool {
+        false
+    }
+
+    /// Whether the estimate reads [`GatherQuery::exact`]; the render loop prepares the exact
+    /// footprint only when some estimator does.
+    fn reads_exact_footprint(&self) -> bool {
         false
     }
 

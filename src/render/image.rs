@@ -348,10 +348,7 @@ impl<'a> TileRenderer<'a> {
             Vec::new()
         };
         let samples = self.samples(tile, &edge);
-        let wants_exact = self
-            .estimators
-            .iter()
-            .any(|e| e.integrates_view_footprint());
+        let wants_exact = self.estimators.iter().any(|e| e.reads_exact_footprint());
         let mut gathers = GatherCounts::default();
         let mut vertices: Vec<DiffuseVertex> = Vec::new();
         let mut radiance = [DVec3::ZERO; PACKET_WIDTH];

@@ -267,10 +267,11 @@ impl Stats {
         let g = &self.gathers;
         if g.gathers > 0 {
             out += &format!(
-                "  {} gathers, {:.1} photons found and {:.1} used per gather\n",
+                "  {} gathers, {:.1} photons found and {:.1} used per gather, {} over exact view footprints\n",
                 g.gathers,
                 g.photons_found as f64 / g.gathers as f64,
-                g.photons_used as f64 / g.gathers as f64
+                g.photons_used as f64 / g.gathers as f64,
+                g.exact_footprints
             );
         }
         if g.gather_rays > 0 {
