@@ -17,7 +17,8 @@ pub struct TriangleMesh {
 impl TriangleMesh {
     /// Makes sure `positions` has one element of spare capacity, zeroed: Embree reads 4 bytes
     /// past the last vertex, and a mesh with this padding is shared with Embree without a copy
-    /// (see [`SceneBuilder::add_mesh`]). Loaders that know the vertex count allocate it upfront.
+    /// (see [`crate::embree::SceneBuilder::add_mesh`]). Loaders that know the vertex count
+    /// allocate it upfront.
     pub fn reserve_padding(&mut self) {
         self.positions.reserve(1);
         self.positions.spare_capacity_mut()[0].write([0.0; 3]);

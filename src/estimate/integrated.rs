@@ -15,6 +15,12 @@
 //! parallelogram, apart); the rest, whose parallelogram crosses the circle, go through the
 //! general formula in `f64` four photons at a time in SIMD lanes ([`parallelogram_means`]).
 //!
+//! Where the query carries its exact view footprint ([`GatherQuery::exact`]: the pixel's corner
+//! rays on the tangent plane of a hit seen directly), `V` is that quadrilateral instead of the
+//! first-order parallelogram, integrated by the same flux formula
+//! ([`crate::geometry::disc_integral::quad`]): neighbouring pixels' quadrilaterals tile the
+//! plane, so light concentrated on a pixel boundary is counted once.
+//!
 //! A vanishing view footprint gives the kernel at the centre: the photon-differential estimate
 //! (`pd`). The gather asks the map for every photon whose footprint may overlap `V`
 //! ([`PhotonMap::covering`]), as the multi-sampled estimate does.

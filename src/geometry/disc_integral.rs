@@ -262,7 +262,7 @@ pub fn general<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T, T) {
 ///
 /// The margins are far beyond rounding. A circumradius below 1 always takes the second case
 /// with `S < pi` (a set of diameter below 2 meets less than half the circle). Factors that
-/// would underflow are set to 1 ([`nonzero`]); the largest factor, about `(3 R)^8` for
+/// would underflow are set to 1 (`nonzero`); the largest factor, about `(3 R)^8` for
 /// circumradius `R`, bounds the circumradius so that the product stays finite.
 #[inline(always)]
 pub fn general_one_arc<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T, T) {

@@ -141,7 +141,7 @@ fn cell(v: Option<f64>) -> String {
     v.map_or("-".into(), |v| format!("{v:.4}"))
 }
 
-/// [`write`], and each table beside the page as JSON for `photondiff report --table`:
+/// [`write`](fn@write), and each table beside the page as JSON for `photondiff report --table`:
 /// `table.json`, then `table-2.json` and on.
 pub fn write_with_tables(report: &Report, dir: &Path) -> Result<PathBuf, String> {
     let page = write(report, dir)?;
