@@ -4,6 +4,9 @@
 //! view footprint; power conservation over a tiling of view footprints; and its image against
 //! multi-sampled 32 x 32 on the canonical scene.
 
+mod common;
+use common::floor_photon;
+
 use glam::{DVec2, DVec3};
 use photondiff::embree::{Device, Ray};
 use photondiff::estimate::integrated::IntegratedEstimate;
@@ -15,8 +18,8 @@ use photondiff::estimate::{
 use photondiff::geometry::disc_integral::{classify, mean, Overlap, MIN_WIDTH};
 use photondiff::geometry::surface::transfer_to;
 use photondiff::photons::emission::Emitter;
-use photondiff::photons::footprint::{footprint, FootprintLimits, Guards};
-use photondiff::photons::map::{PathClass, Photon, PhotonMap};
+use photondiff::photons::footprint::Guards;
+use photondiff::photons::map::{PathClass, PhotonMap};
 use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
 use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::render::stats::Stats;
@@ -26,15 +29,6 @@ use photondiff::scene::Scene;
 use proptest::prelude::*;
 use std::f64::consts::PI;
 use std::path::Path;
-
-/// Gauss-Legendre nodes and weights on [-1, 1], 5 points.
-const GL5: [(f64, f64); 5] = [
-    (0.0, 0.568_888_888_888_888_9),
-    (-0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
-    (0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
-    (-0.906_179_845_938_664, 0.236_926_885_056_189_1),
-    (0.906_179_845_938_664, 0.236_926_885_056_189_1),
-];
 
 /// The mean of `(1 - |u|^2)+` over `{s + alpha a + beta b : alpha, beta in [-1/2, 1/2]}` by
 /// Fubini, independently of the divergence theorem: for each `alpha` the exact integral of the
@@ -91,22 +85,7 @@ fn quadrature(s: DVec2, a: DVec2, b: DVec2, panels: usize) -> f64 {
         }
     }
     cuts.sort_by(f64::total_cmp);
-    // On each piece alpha = c0 + (c1 - c0)(1 - cos theta)/2: the integrand behaves like
-    // (alpha - c0)^(3/2) where a line becomes tangent to the circle, and is smooth in theta.
-    let mut sum = 0.0;
-    for w in cuts.windows(2) {
-        let h = PI / panels as f64;
-        for k in 0..panels {
-            let mid = (k as f64 + 0.5) * h;
-            for (x, wt) in GL5 {
-                let theta = mid + 0.5 * h * x;
-                let alpha = w[0] + (w[1] - w[0]) * 0.5 * (1.0 - theta.cos());
-                let jacobian = (w[1] - w[0]) * 0.5 * theta.sin();
-                sum += wt * 0.5 * h * jacobian * inner(alpha);
-            }
-        }
-    }
-    sum
+    common::integrate_between_cuts(&cuts, panels, inner)
 }
 
 /// Multi-sampled N x N mean of `(1 - |u|^2)+` (the multi-sampled estimate's own kernel, f32).
@@ -230,17 +209,6 @@ proptest! {
         let m = mean(s, a, b);
         prop_assert!((m - m32).abs() <= 1e-3 * m32, "closed form {} vs N = 32 {} (N = 64 {})", m, m32, m64);
     }
-}
-
-/// A photon at `position` on the floor (normal +y) with footprint radius vectors `a`, `b` in it.
-fn floor_photon(position: DVec3, a: DVec3, b: DVec3, power: f64) -> Photon {
-    let limits = FootprintLimits {
-        min_radius: 1e-9,
-        max_radius: 1e9,
-        max_anisotropy: 1e9,
-    };
-    let f = footprint(a, b, DVec3::Y, &limits, 1.0, &mut Guards::default());
-    Photon::new(position, DVec3::Y, -DVec3::Y, DVec3::splat(power), &f)
 }
 
 fn on_floor(v: DVec2) -> DVec3 {

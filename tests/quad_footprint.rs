@@ -3,24 +3,18 @@
 //! the footprints of a perspective camera's pixels on a plane, where first-order parallelograms
 //! overlap and leave gaps.
 
+mod common;
+use common::floor_photon;
+
 use glam::{DVec2, DVec3};
 use photondiff::estimate::integrated::IntegratedEstimate;
 use photondiff::estimate::{ExactFootprint, GatherCounts, GatherQuery, RadianceEstimator};
 use photondiff::geometry::disc_integral::quad::{classify_quad, quad_mean, QuadOverlap};
-use photondiff::photons::footprint::{footprint, FootprintLimits, Guards};
+use photondiff::photons::footprint::Guards;
 use photondiff::photons::map::{PathClass, Photon, PhotonMap};
 use photondiff::scene::camera::Camera;
 use proptest::prelude::*;
 use std::f64::consts::PI;
-
-/// Gauss-Legendre nodes and weights on [-1, 1], 5 points.
-const GL5: [(f64, f64); 5] = [
-    (0.0, 0.568_888_888_888_888_9),
-    (-0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
-    (0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
-    (-0.906_179_845_938_664, 0.236_926_885_056_189_1),
-    (0.906_179_845_938_664, 0.236_926_885_056_189_1),
-];
 
 /// The mean of `(1 - |u|^2)+` over the convex polygon `v` by Fubini, independently of the
 /// divergence theorem: for each `x` the exact integral over the `y`-interval inside both the
@@ -76,19 +70,7 @@ fn quadrature(v: &[DVec2; 4], panels: usize) -> f64 {
     }
     cuts.retain(|&c| c >= xmin && c <= xmax);
     cuts.sort_by(f64::total_cmp);
-    let mut sum = 0.0;
-    for w in cuts.windows(2) {
-        let h = PI / panels as f64;
-        for k in 0..panels {
-            let mid = (k as f64 + 0.5) * h;
-            for (x, wt) in GL5 {
-                let theta = mid + 0.5 * h * x;
-                let at = w[0] + (w[1] - w[0]) * 0.5 * (1.0 - theta.cos());
-                let jacobian = (w[1] - w[0]) * 0.5 * theta.sin();
-                sum += wt * 0.5 * h * jacobian * inner(at);
-            }
-        }
-    }
+    let sum = common::integrate_between_cuts(&cuts, panels, inner);
     let area = 0.5
         * (0..4)
             .map(|k| (v[k] - v[0]).perp_dot(v[(k + 1) % 4] - v[0]))
@@ -178,14 +160,24 @@ fn folded_and_crossed_quadrilaterals_are_not_taken() {
     assert_eq!(quad_mean(dented), None);
 }
 
-fn floor_photon(position: DVec3, a: DVec3, b: DVec3, power: f64) -> Photon {
-    let limits = FootprintLimits {
-        min_radius: 1e-12,
-        max_radius: 1e9,
-        max_anisotropy: 1e9,
-    };
-    let f = footprint(a, b, DVec3::Y, &limits, 1.0, &mut Guards::default());
-    Photon::new(position, DVec3::Y, -DVec3::Y, DVec3::splat(power), &f)
+/// A 160 x 120 pinhole looking obliquely down at the floor `y = 0`.
+fn oblique_camera() -> Camera {
+    Camera::look_at(
+        DVec3::new(0.3, 2.0, 3.0),
+        DVec3::ZERO,
+        DVec3::Y,
+        40.0,
+        160,
+        120,
+    )
+    .unwrap()
+}
+
+/// Where the ray through the image corner nearest `at`'s projection meets the floor `y = 0`.
+fn nearest_pixel_corner(camera: &Camera, at: DVec3) -> DVec3 {
+    let (px, py) = camera.project(at).unwrap();
+    let ray = camera.ray(px.round(), py.round(), 1.0);
+    ray.p + ray.d * (-ray.p.y / ray.d.y)
 }
 
 /// Sums the estimate times each pixel's footprint area over the pixels around `photon` on the
@@ -242,23 +234,12 @@ proptest! {
         at in (-0.4f64..0.4, -0.4f64..0.4),
         on_a_corner in any::<bool>(),
     ) {
-        let camera = Camera::look_at(
-            DVec3::new(0.3, 2.0, 3.0),
-            DVec3::ZERO,
-            DVec3::Y,
-            40.0,
-            160,
-            120,
-        )
-        .unwrap();
+        let camera = oblique_camera();
         let mut position = DVec3::new(at.0, 0.0, at.1);
         if on_a_corner {
             // On the corner the pixels around it share: where slivers of neighbouring
             // parallelograms overlap.
-            let (px, py) = camera.project(position).unwrap();
-            let (px, py) = (px.round(), py.round());
-            let ray = camera.ray(px, py, 1.0);
-            position = ray.p + ray.d * (-ray.p.y / ray.d.y);
+            position = nearest_pixel_corner(&camera, position);
         }
         let radius = 10f64.powf(log_radius);
         let a = DVec3::new(angle.cos(), 0.0, angle.sin()) * radius;
@@ -274,28 +255,18 @@ fn first_order_parallelograms_miscount_a_photon_on_a_pixel_corner() {
     // What the exact footprints mend: a photon far smaller than a pixel on the corner four
     // pixels share is counted by the overlapping first-order parallelograms more than once
     // (or by none where they leave a gap).
-    let camera = Camera::look_at(
-        DVec3::new(0.3, 2.0, 3.0),
-        DVec3::ZERO,
-        DVec3::Y,
-        40.0,
-        160,
-        120,
-    )
-    .unwrap();
+    let camera = oblique_camera();
     for k in 0..12 {
         let t = k as f64;
         let at = DVec3::new(0.6 * (0.7 * t).sin(), 0.0, 0.5 * (1.3 * t).cos());
-        let (px, py) = camera.project(at).unwrap();
-        let ray = camera.ray(px.round(), py.round(), 1.0);
-        let position = ray.p + ray.d * (-ray.p.y / ray.d.y);
+        let position = nearest_pixel_corner(&camera, at);
         let photon = floor_photon(position, DVec3::X * 1e-5, DVec3::Z * 1e-5, 2.5);
         let exact = power_over_pixels(&camera, photon, true);
         let first_order = power_over_pixels(&camera, photon, false);
-        assert!((exact - 2.5).abs() <= 1e-6 * 2.5, "{px} {py}: {exact}");
+        assert!((exact - 2.5).abs() <= 1e-6 * 2.5, "{position}: {exact}");
         assert!(
             (first_order - 2.5).abs() > 0.1 * 2.5,
-            "{px} {py}: {first_order}"
+            "{position}: {first_order}"
         );
     }
 }

@@ -27,6 +27,7 @@
 
 use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadOverlap};
+use crate::geometry::disc_integral::rows::Rows;
 use crate::geometry::disc_integral::{
     classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
 };
@@ -37,73 +38,15 @@ use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
 use wide::f64x4;
 
 /// SIMD width of the general formula's batch.
-pub const LANES: usize = 4;
+pub use crate::geometry::disc_integral::rows::LANES;
 
-/// Parallelograms in filter space for the general formula, structure of arrays.
-#[derive(Debug, Clone, Default)]
-pub struct ParallelogramBatch {
-    s0: Vec<f64>,
-    s1: Vec<f64>,
-    a0: Vec<f64>,
-    a1: Vec<f64>,
-    b0: Vec<f64>,
-    b1: Vec<f64>,
-    len: usize,
-}
+/// Parallelograms in filter space for the general formula: rows `(s, a, b)`.
+pub type ParallelogramBatch = Rows<6>;
 
-impl ParallelogramBatch {
-    /// Empties the batch, keeping its storage.
-    pub fn clear(&mut self) {
-        for v in self.columns() {
-            v.clear();
-        }
-        self.len = 0;
-    }
-
-    fn columns(&mut self) -> [&mut Vec<f64>; 6] {
-        [
-            &mut self.s0,
-            &mut self.s1,
-            &mut self.a0,
-            &mut self.a1,
-            &mut self.b0,
-            &mut self.b1,
-        ]
-    }
-
+impl Rows<6> {
     /// Adds the parallelogram of centre `s` and edge vectors `a`, `b` (non-zero area).
     pub fn push(&mut self, s: DVec2, a: DVec2, b: DVec2) {
-        for (v, x) in self
-            .columns()
-            .into_iter()
-            .zip([s.x, s.y, a.x, a.y, b.x, b.y])
-        {
-            v.push(x);
-        }
-        self.len += 1;
-    }
-
-    /// Number of parallelograms.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    /// Whether the batch is empty.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// Pads to whole SIMD chunks with unit squares far from the disc.
-    fn pad(&mut self) {
-        while !self.s0.len().is_multiple_of(LANES) {
-            for (v, x) in self
-                .columns()
-                .into_iter()
-                .zip([1e6, 0.0, 1.0, 0.0, 0.0, 1.0])
-            {
-                v.push(x);
-            }
-        }
+        self.push_row([s.x, s.y, a.x, a.y, b.x, b.y]);
     }
 }
 
@@ -111,42 +54,29 @@ impl ParallelogramBatch {
 /// ([`general_one_arc`], or [`general`] where a lane's parallelogram is too large for it), four
 /// at a time in SIMD lanes (`f64x4`). `out` gets one mean per parallelogram.
 pub fn parallelogram_means(batch: &mut ParallelogramBatch, out: &mut Vec<f64>) {
-    batch.pad();
     out.clear();
-    let load = |v: &[f64], k: usize| {
-        f64x4::from(<[f64; LANES]>::try_from(&v[k..k + LANES]).unwrap_or([0.0; LANES]))
-    };
-    let b = &*batch;
-    for k in (0..b.s0.len()).step_by(LANES) {
-        let args = (
-            load(&b.s0, k),
-            load(&b.s1, k),
-            load(&b.a0, k),
-            load(&b.a1, k),
-            load(&b.b0, k),
-            load(&b.b1, k),
-        );
+    let len = batch.len();
+    // Padding: unit squares far from the disc.
+    for [s0, s1, a0, a1, b0, b1] in batch.chunks([1e6, 0.0, 1.0, 0.0, 0.0, 1.0]) {
         // One atan2 a lane, or four where a parallelogram is too large for that.
-        let one_arc = takes_one_arc(args.2, args.3, args.4, args.5).simd_ge(f64x4::ZERO);
+        let one_arc = takes_one_arc(a0, a1, b0, b1).simd_ge(f64x4::ZERO);
         let (integral, area) = if one_arc.all() {
-            general_one_arc(args.0, args.1, args.2, args.3, args.4, args.5)
+            general_one_arc(s0, s1, a0, a1, b0, b1)
         } else {
-            general(args.0, args.1, args.2, args.3, args.4, args.5)
+            general(s0, s1, a0, a1, b0, b1)
         };
         out.extend_from_slice(&(integral / area).max(f64x4::ZERO).to_array());
     }
-    out.truncate(batch.len);
+    out.truncate(len);
 }
 
 /// The scalar version of [`parallelogram_means`], for comparison in benchmarks and tests.
 pub fn parallelogram_means_scalar(batch: &ParallelogramBatch, out: &mut Vec<f64>) {
     out.clear();
-    for k in 0..batch.len {
-        let (integral, area) = general_either(
-            DVec2::new(batch.s0[k], batch.s1[k]),
-            DVec2::new(batch.a0[k], batch.a1[k]),
-            DVec2::new(batch.b0[k], batch.b1[k]),
-        );
+    for k in 0..batch.len() {
+        let [s0, s1, a0, a1, b0, b1] = batch.row(k);
+        let (integral, area) =
+            general_either(DVec2::new(s0, s1), DVec2::new(a0, a1), DVec2::new(b0, b1));
         out.push((integral / area).max(0.0));
     }
 }
@@ -223,26 +153,18 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                 let filter = |w: DVec3| DVec2::new(m0.dot(w), m1.dot(w));
                 let s = filter(q.position - p.position.as_dvec3());
                 let (a, b) = (filter(f[0]), filter(f[1]));
-                if let Some((frame, _)) = &quad {
-                    match frame.classify(s, a, b) {
-                        QuadOverlap::None => continue,
-                        QuadOverlap::Mean(mean) => {
-                            if mean > 0.0 {
-                                counts.photons_used += 1;
-                                total += p.power * (p.inv_area * mean as f32);
-                            }
-                            continue;
-                        }
-                        QuadOverlap::General(vertices) => {
-                            scratch.quads.push(vertices);
-                            scratch.general_quads.push(i);
-                            continue;
-                        }
-                        // Too thin or folded: the parallelogram below.
-                        QuadOverlap::NotConvex => {}
+                let overlap = match quad.as_ref().map(|(frame, _)| frame.classify(s, a, b)) {
+                    Some(QuadOverlap::None) => Overlap::None,
+                    Some(QuadOverlap::Mean(mean)) => Overlap::Mean(mean),
+                    Some(QuadOverlap::General(vertices)) => {
+                        scratch.quads.push(vertices);
+                        scratch.general_quads.push(i);
+                        continue;
                     }
-                }
-                match classify(s, a, b) {
+                    // No exact footprint, or one too thin or folded: the parallelogram.
+                    Some(QuadOverlap::NotConvex) | None => classify(s, a, b),
+                };
+                match overlap {
                     Overlap::None => {}
                     Overlap::Mean(mean) => {
                         if mean > 0.0 {

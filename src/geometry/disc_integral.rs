@@ -420,6 +420,7 @@ fn thickened(a: DVec2, b: DVec2, min_width: f64) -> (DVec2, DVec2) {
 }
 
 pub mod quad;
+pub mod rows;
 
 #[cfg(test)]
 mod tests;

@@ -17,6 +17,7 @@
 //! vertices' centroid, which keeps them exact for small quadrilaterals far from the origin),
 //! the disc inside (every `h >= 1`), a separating side (some `h <= -1`).
 
+use super::rows::Rows;
 use super::{one_arc_flux, side, Lane, ONE_ARC_MAX_CIRCUMRADIUS, POINT_SIZE};
 use glam::DVec2;
 use std::f64::consts::FRAC_PI_2;
@@ -261,65 +262,26 @@ pub fn quad_mean(v: [DVec2; 4]) -> Option<f64> {
     }
 }
 
-/// Quadrilaterals for the general formula, structure of arrays (vertex `k`'s coordinates in
-/// columns `x[k]`, `y[k]`).
-#[derive(Debug, Clone, Default)]
-pub struct QuadBatch {
-    x: [Vec<f64>; 4],
-    y: [Vec<f64>; 4],
-    len: usize,
-}
+/// Quadrilaterals for the general formula: rows of the four vertices' `x`, then their `y`.
+pub type QuadBatch = Rows<8>;
 
-impl QuadBatch {
-    /// Empties the batch, keeping its storage.
-    pub fn clear(&mut self) {
-        for c in self.x.iter_mut().chain(self.y.iter_mut()) {
-            c.clear();
-        }
-        self.len = 0;
-    }
-
+impl Rows<8> {
     /// Adds a counter-clockwise convex quadrilateral (as [`QuadOverlap::General`] gives it).
     pub fn push(&mut self, v: [DVec2; 4]) {
-        for ((x, y), p) in self.x.iter_mut().zip(&mut self.y).zip(v) {
-            x.push(p.x);
-            y.push(p.y);
-        }
-        self.len += 1;
-    }
-
-    /// Number of quadrilaterals.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    /// Whether the batch is empty.
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// Pads to whole SIMD chunks with unit squares far from the disc.
-    fn pad(&mut self) {
-        const FAR: [(f64, f64); 4] = [(1e6, 0.0), (1e6 + 1.0, 0.0), (1e6 + 1.0, 1.0), (1e6, 1.0)];
-        while !self.x[0].len().is_multiple_of(4) {
-            for (k, (x, y)) in FAR.iter().enumerate() {
-                self.x[k].push(*x);
-                self.y[k].push(*y);
-            }
-        }
+        let [p0, p1, p2, p3] = v;
+        self.push_row([p0.x, p1.x, p2.x, p3.x, p0.y, p1.y, p2.y, p3.y]);
     }
 }
 
 /// For each quadrilateral of `batch`, the mean of `(1 - |u|^2)+` over it by the general
 /// formula, four at a time in SIMD lanes (as `estimate::integrated::parallelogram_means`).
 pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>) {
-    batch.pad();
     out.clear();
-    let load =
-        |v: &[f64], k: usize| f64x4::from(<[f64; 4]>::try_from(&v[k..k + 4]).unwrap_or([0.0; 4]));
-    for k in (0..batch.x[0].len()).step_by(4) {
-        let x = [0, 1, 2, 3].map(|j| load(&batch.x[j], k));
-        let y = [0, 1, 2, 3].map(|j| load(&batch.y[j], k));
+    let len = batch.len();
+    // Padding: unit squares far from the disc.
+    let far = [1e6, 1e6 + 1.0, 1e6 + 1.0, 1e6, 0.0, 0.0, 1.0, 1.0];
+    for [x0, x1, x2, x3, y0, y1, y2, y3] in batch.chunks(far) {
+        let (x, y) = ([x0, x1, x2, x3], [y0, y1, y2, y3]);
         let (integral, area) = if quad_takes_one_arc(x, y).simd_ge(f64x4::ZERO).all() {
             general_quad_one_arc(x, y)
         } else {
@@ -327,7 +289,7 @@ pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>) {
         };
         out.extend_from_slice(&(integral / area).max(f64x4::ZERO).to_array());
     }
-    out.truncate(batch.len);
+    out.truncate(len);
 }
 
 #[cfg(test)]

@@ -1,0 +1,49 @@
+//! Helpers shared by test files (each takes them with `mod common;`).
+
+use glam::DVec3;
+use photondiff::photons::footprint::{footprint, FootprintLimits, Guards};
+use photondiff::photons::map::Photon;
+use std::f64::consts::PI;
+
+/// Gauss-Legendre nodes and weights on [-1, 1], 5 points.
+const GL5: [(f64, f64); 5] = [
+    (0.0, 0.568_888_888_888_888_9),
+    (-0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
+    (0.538_469_310_105_683_1, 0.478_628_670_499_366_5),
+    (-0.906_179_845_938_664, 0.236_926_885_056_189_1),
+    (0.906_179_845_938_664, 0.236_926_885_056_189_1),
+];
+
+/// The integral of `f` from the first of `cuts` (sorted) to the last, piece by piece between
+/// consecutive cuts (where `f` has kinks), each by composite Gauss-Legendre on `panels` panels
+/// in the variable `theta` of `x = c0 + (c1 - c0)(1 - cos theta)/2`: an integrand that behaves
+/// like `(x - c0)^(3/2)` at an end (a line becoming tangent to the unit circle) is smooth in
+/// `theta`.
+pub fn integrate_between_cuts(cuts: &[f64], panels: usize, f: impl Fn(f64) -> f64) -> f64 {
+    let mut sum = 0.0;
+    for w in cuts.windows(2) {
+        let h = PI / panels as f64;
+        for k in 0..panels {
+            let mid = (k as f64 + 0.5) * h;
+            for (x, wt) in GL5 {
+                let theta = mid + 0.5 * h * x;
+                let at = w[0] + (w[1] - w[0]) * 0.5 * (1.0 - theta.cos());
+                let jacobian = (w[1] - w[0]) * 0.5 * theta.sin();
+                sum += wt * 0.5 * h * jacobian * f(at);
+            }
+        }
+    }
+    sum
+}
+
+/// A photon at `position` on the floor (normal +y) with footprint radius vectors `a`, `b` in
+/// it, arriving straight down, with no guard on its footprint's size or shape.
+pub fn floor_photon(position: DVec3, a: DVec3, b: DVec3, power: f64) -> Photon {
+    let limits = FootprintLimits {
+        min_radius: 1e-12,
+        max_radius: 1e9,
+        max_anisotropy: 1e9,
+    };
+    let f = footprint(a, b, DVec3::Y, &limits, 1.0, &mut Guards::default());
+    Photon::new(position, DVec3::Y, -DVec3::Y, DVec3::splat(power), &f)
+}
