@@ -7,12 +7,26 @@ use crate::embree::{self, Ray};
 use crate::render::film::{linear_to_srgb, Film};
 use crate::scene::{Light, Material, Scene};
 use glam::DVec3;
+use rayon::prelude::*;
 use std::f64::consts::FRAC_1_PI;
+
+/// What a diffuse pixel is judged as besides the floor.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Class {
+    Caustic,
+    Shadow,
+    Other,
+}
 
 /// The regions of an image where estimators are judged.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Regions {
-    /// Pixels whose centre camera ray first hits a diffuse surface.
+    /// Pixels seen directly on diffuse surfaces over their whole area: every camera ray of a
+    /// [`COVER_LATTICE`] x [`COVER_LATTICE`] lattice spanning the pixel (its corners included)
+    /// first hits a diffuse surface. A pixel partly covered by a mirror or glass is left out:
+    /// the light tracer connects only diffuse vertices to the camera, so the reference holds
+    /// nothing for the part of the pixel that shows a specular surface (what is seen through
+    /// it), and judging a render there would count the reference's gap as the render's error.
     pub diffuse: Vec<usize>,
     /// Diffuse pixels the reference lights (any channel above zero): where image energy is
     /// compared.
@@ -26,6 +40,27 @@ pub struct Regions {
     /// pixel's centre, though some would light it unblocked: the shadows, dim and easy to
     /// overlook, where streaks show. (Empty in a scene lit by quad lights alone.)
     pub shadow: Vec<usize>,
+}
+
+/// Rays per side of the lattice that decides whether a pixel is seen on diffuse surfaces over
+/// its whole area ([`Regions::diffuse`]): a specular sliver narrower than about 1/8 of a pixel
+/// can slip between its rays.
+pub const COVER_LATTICE: usize = 9;
+
+/// Whether every ray of a [`COVER_LATTICE`]-square lattice spanning pixel `(x, y)` (corners
+/// included) first hits a diffuse surface.
+fn seen_on_diffuse(scene: &Scene, embree: &embree::Scene, x: usize, y: usize) -> bool {
+    let step = 1.0 / (COVER_LATTICE - 1) as f64;
+    (0..COVER_LATTICE).all(|j| {
+        (0..COVER_LATTICE).all(|i| {
+            let r = scene
+                .camera
+                .ray(x as f64 + i as f64 * step, y as f64 + j as f64 * step, 1.0);
+            embree
+                .intersect(&Ray::new(r.p, r.d))
+                .is_some_and(|hit| matches!(scene.material(hit.geom_id), Material::Diffuse { .. }))
+        })
+    })
 }
 
 /// Radiance the point and spot lights would reflect at a diffuse point `x` (normal `n` facing
@@ -62,35 +97,50 @@ impl Regions {
     pub fn new(scene: &Scene, embree: &embree::Scene, reference: &Film) -> Self {
         let c = &scene.camera;
         let (w, h) = (c.width as usize, c.height as usize);
-        let mut diffuse = Vec::new();
-        let mut caustic = Vec::new();
-        let mut shadowed = Vec::new();
         let epsilon = scene.ray_epsilon();
-        for y in 0..h {
-            for x in 0..w {
-                let r = c.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
-                let Some(hit) = embree.intersect(&Ray::new(r.p, r.d)) else {
-                    continue;
-                };
-                let Material::Diffuse { albedo } = *scene.material(hit.geom_id) else {
-                    continue;
-                };
-                let i = y * w + x;
-                diffuse.push(i);
-                let n = crate::geometry::surface::facing(hit.geometric_normal, r.d);
-                let direct = unblocked_direct(scene, hit.position, n, albedo);
-                let value = reference.pixels[i];
-                if direct.max_element() > 0.0
-                    && (value.x + value.y + value.z) > 1.5 * (direct.x + direct.y + direct.z)
-                {
-                    caustic.push(i);
-                } else if direct.max_element() > 0.0
-                    && blocked(scene, embree, hit.position, n, epsilon)
-                {
-                    shadowed.push(i);
+        // Each pixel: whether it is diffuse over its whole area, and if so whether it is in the
+        // caustic or the shadow (rows in parallel: the lattice costs 81 rays a pixel).
+        let classes: Vec<Vec<(usize, Class)>> = (0..h)
+            .into_par_iter()
+            .map(|y| {
+                let mut row = Vec::new();
+                for x in 0..w {
+                    let r = c.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
+                    let Some(hit) = embree.intersect(&Ray::new(r.p, r.d)) else {
+                        continue;
+                    };
+                    let Material::Diffuse { albedo } = *scene.material(hit.geom_id) else {
+                        continue;
+                    };
+                    if !seen_on_diffuse(scene, embree, x, y) {
+                        continue;
+                    }
+                    let i = y * w + x;
+                    let n = crate::geometry::surface::facing(hit.geometric_normal, r.d);
+                    let direct = unblocked_direct(scene, hit.position, n, albedo);
+                    let value = reference.pixels[i];
+                    let class = if direct.max_element() > 0.0
+                        && (value.x + value.y + value.z) > 1.5 * (direct.x + direct.y + direct.z)
+                    {
+                        Class::Caustic
+                    } else if direct.max_element() > 0.0
+                        && blocked(scene, embree, hit.position, n, epsilon)
+                    {
+                        Class::Shadow
+                    } else {
+                        Class::Other
+                    };
+                    row.push((i, class));
                 }
-            }
-        }
+                row
+            })
+            .collect();
+        let pixels = || classes.iter().flatten();
+        let diffuse: Vec<usize> = pixels().map(|&(i, _)| i).collect();
+        let of = |class: Class| -> Vec<usize> {
+            pixels().filter(|p| p.1 == class).map(|&(i, _)| i).collect()
+        };
+        let (caustic, shadowed) = (of(Class::Caustic), of(Class::Shadow));
         let luminance = |i: usize| {
             let p = reference.pixels[i];
             (p.x + p.y + p.z) / 3.0
