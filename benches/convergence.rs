@@ -113,6 +113,7 @@ fn progressive(
         estimator,
         render: RenderOptions::default()
             .with_view_grid(view_grid)
+            .with_edge_grid(defaults.long_run_edge_grid)
             .with_footprint_strata(defaults.footprint_strata)
             .with_threads(threads),
         alpha: DEFAULT_ALPHA,
@@ -120,6 +121,8 @@ fn progressive(
     let last = budgets.iter().cloned().fold(0.0, f64::max);
     let mut sum = PassSum::new(scene.camera.width, scene.camera.height);
     let start = Instant::now();
+    // As `Progressive::run` does: the edge pixels found once, within the budget.
+    let run = run.with_edges_found(&mut Stats::default());
     // Per budget: the mean after the last pass that ended within it (the first pass if none did).
     let mut chosen: Vec<Option<(f64, [f64; 4], Film)>> = vec![None; budgets.len()];
     while start.elapsed().as_secs_f64() < last {

@@ -2,8 +2,11 @@
 //! rendered on the finer grid, and that final gathering spends a pixel's rays over its cells.
 
 use photondiff::embree::{Device, Ray};
-use photondiff::render::edges::{edge_pixels, same_surface};
+use photondiff::estimate::{EstimatorKind, EstimatorSettings};
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::render::edges::{edge_pixels, same_surface, EdgeMask};
 use photondiff::render::film::Film;
+use photondiff::render::passes::{Progressive, StopRules, DEFAULT_ALPHA};
 use photondiff::render::stats::Stats;
 use photondiff::render::{render, RenderOptions, TILE_SIZE};
 use photondiff::scene::file::parse_scene;
@@ -225,6 +228,12 @@ segments = 64
 /// Renders `BALL_IN_A_SPHERE` with `--estimator pd --photons 2000` and `args`; returns the
 /// statistics JSON.
 fn ball_stats(args: &[&str]) -> serde_json::Value {
+    ball_stats_as("pd", args)
+}
+
+/// Renders `BALL_IN_A_SPHERE` with `--estimator ESTIMATOR --photons 2000` and `args`; returns
+/// the statistics JSON.
+fn ball_stats_as(estimator: &str, args: &[&str]) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
     std::fs::write(&scene, BALL_IN_A_SPHERE).unwrap();
@@ -234,7 +243,7 @@ fn ball_stats(args: &[&str]) -> serde_json::Value {
             "render",
             "--quiet",
             "--estimator",
-            "pd",
+            estimator,
             "--photons",
             "2000",
         ])
@@ -289,4 +298,126 @@ fn bad_edge_grids_are_clear_errors() {
             "--edge-grid {bad}: {stderr}"
         );
     }
+}
+
+/// Corner rays [`EdgeMask::find`] traces over a `w x h` image: bands of 16 rows, each with its
+/// own rows of corners.
+fn band_corners(w: u32, h: u32) -> u64 {
+    (0..h)
+        .step_by(16)
+        .map(|y| (w as u64 + 1) * (((y + 16).min(h) - y) as u64 + 1))
+        .sum()
+}
+
+#[test]
+fn an_edge_mask_found_once_renders_as_edges_found_tile_by_tile() {
+    let scene = small_canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let (edge, _) = edge_pixels(&scene.camera, &embree, (0, 0, w, h));
+    let (mask, corner_rays) = EdgeMask::find(&scene.camera, &embree, (0, 0, w, h));
+    assert_eq!(mask.tile((0, 0, w, h)).unwrap(), edge);
+    let edges = edge.iter().filter(|&&e| e).count();
+    assert!(edges > 100, "{edges} edge pixels");
+    assert_eq!(mask.count(), edges);
+    assert_eq!(corner_rays, band_corners(w, h));
+    // A tile's flags are the mask's rows and columns of it.
+    let tile = mask.tile((16, 32, 48, 40)).unwrap();
+    for (k, &flag) in tile.iter().enumerate() {
+        let (x, y) = (16 + k as u32 % 32, 32 + k as u32 / 32);
+        assert_eq!(flag, edge[(y * w + x) as usize]);
+    }
+    let options = RenderOptions::default().with_edge_grid(4).with_threads(2);
+    let direct = |options: &RenderOptions| -> (Film, Stats) {
+        let mut stats = Stats::default();
+        let film = render(&scene, &embree, &[], options, &mut stats).unwrap();
+        (film, stats)
+    };
+    let (per_tile, tiled) = direct(&options);
+    let (once, found) = direct(&options.clone().with_edges(Some(mask)));
+    assert!(
+        once == per_tile,
+        "the image depends on where the edges were found"
+    );
+    assert_eq!(found.edge_pixels, tiled.edge_pixels);
+    // No corner rays in the render itself: one ray per pixel and 15 more per edge pixel.
+    assert_eq!(found.rays.camera, (w * h) as u64 + 15 * edges as u64);
+    // A mask of part of the image: the tiles outside it find their own edges.
+    let (part, _) = EdgeMask::find(&scene.camera, &embree, (0, 0, 32, 32));
+    assert_eq!(part.tile((32, 0, 48, 16)), None);
+    let (partly, _) = direct(&options.clone().with_edges(Some(part)));
+    assert!(partly == per_tile);
+}
+
+#[test]
+fn a_progressive_run_finds_its_edge_pixels_once() {
+    let scene = small_canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let (mask, _) = EdgeMask::find(&scene.camera, &embree, (0, 0, w, h));
+    let edges = mask.count() as u64;
+    let photons = PhotonOptions::default();
+    let run = Progressive {
+        scene: &scene,
+        embree: &embree,
+        photons: photons.clone(),
+        estimator: EstimatorSettings {
+            kind: EstimatorKind::Direct,
+            k: 50,
+            max_radius: photons.limits(&scene).max_radius,
+            ms_grid: 4,
+            ellipse_vertices: 16,
+            gather_rays: 0,
+            gather_near: 0.0,
+        },
+        render: RenderOptions::default().with_edge_grid(4).with_threads(2),
+        alpha: DEFAULT_ALPHA,
+    };
+    let stop = StopRules {
+        passes: Some(3),
+        ..StopRules::default()
+    };
+    let mut stats = Stats::default();
+    let sum = run.run(&stop, false, &mut stats).unwrap();
+    assert_eq!(sum.passes, 3);
+    assert_eq!(stats.edge_pixels, 3 * edges);
+    // Three passes of one ray per pixel and 16 per edge pixel; the corners once.
+    assert_eq!(
+        stats.rays.camera,
+        3 * ((w * h) as u64 + 15 * edges) + band_corners(w, h)
+    );
+    // The same passes rendered as a range (what a cluster's worker does) give the same sum.
+    let mut range_stats = Stats::default();
+    let range = run.render_range(0..3, &mut range_stats).unwrap();
+    assert!(range.mean() == sum.mean());
+    assert_eq!(range_stats.rays.camera, stats.rays.camera);
+}
+
+/// `integrated` splits edge pixels by default in a long run only (more than its 2 passes, a
+/// time budget or a target noise), where their bias would outlast the noise; the other
+/// estimators keep the thesis's one ray a pixel; an explicit `--edge-grid` wins.
+#[test]
+fn a_long_integrated_run_splits_edge_pixels_by_default() {
+    let edges = |estimator: &str, args: &[&str]| {
+        ball_stats_as(estimator, args)["edge_pixels"]
+            .as_u64()
+            .unwrap()
+    };
+    assert_eq!(edges("integrated", &[]), 0);
+    assert_eq!(edges("integrated", &["--passes", "2"]), 0);
+    let three = edges("integrated", &["--passes", "3"]);
+    assert!(
+        three > 30 && three % 3 == 0,
+        "{three} edge pixels over 3 passes"
+    );
+    let budget = edges("integrated", &["--time-budget", "0.5"]);
+    assert!(budget > 0 && budget % (three / 3) == 0, "{budget}");
+    assert_eq!(
+        edges("integrated", &["--passes", "3", "--edge-grid", "1"]),
+        0
+    );
+    assert_eq!(edges("pd", &["--passes", "3"]), 0);
+    assert_eq!(edges("multisampled", &["--passes", "3"]), 0);
 }

@@ -39,9 +39,11 @@ pub struct RenderArgs {
     /// N x N grid, each cell with its own footprint, so that an estimate over the footprint
     /// does not spread one surface's light over the part of the pixel another hides; final
     /// gathering spends the pixel's --gather-rays over its cells. Costs one corner ray per pixel
-    /// plus the edge pixels' cells. Default 4 with final gathering (--gather-rays above 0), where
-    /// the gather rays dominate and it costs a few percent, 1 (off) without; at most --view-grid
-    /// is off.
+    /// (once a run) plus the edge pixels' cells. Default 4 with final gathering (--gather-rays
+    /// above 0), where the gather rays dominate and it costs a few percent, and for a long run of
+    /// `integrated` (--time-budget, --target-noise or more than 2 passes), where it removes a
+    /// bias at occluding edges that the passes never would; 1 (off) otherwise; at most
+    /// --view-grid is off.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
     edge_grid: Option<u32>,
     /// Worker threads (0 = one per core).
@@ -235,6 +237,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         .with_view_grid(args.view_grid)
         .with_edge_grid(args.edge_grid.unwrap_or(if args.gather_rays > 0 {
             DEFAULT_GATHER_EDGE_GRID
+        } else if stop.is_long() {
+            defaults.long_run_edge_grid
         } else {
             1
         }))

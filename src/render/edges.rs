@@ -67,3 +67,69 @@ pub fn edge_pixels(
         .collect();
     (edges, corners.len() as u64)
 }
+
+/// The edge flags of a rectangle of the image (a film: the whole image or a render's window),
+/// found once and shared by every pass of a progressive run: the corner rays pass through the
+/// pixels' corners, which do not move from pass to pass, so one run needs them once, not once a
+/// pass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EdgeMask {
+    /// The rectangle `[x0, x1) x [y0, y1)` in pixels.
+    rect: (u32, u32, u32, u32),
+    /// Row-major flags over the rectangle.
+    flags: std::sync::Arc<[bool]>,
+}
+
+impl EdgeMask {
+    /// The edge pixels of `rect` (`[x0, x1) x [y0, y1)`), bands of rows in parallel, and the
+    /// corner rays traced: the flags are [`edge_pixels`]'s, which depend on a pixel's own
+    /// corners alone.
+    pub fn find(
+        camera: &Camera,
+        embree: &embree::Scene,
+        rect: (u32, u32, u32, u32),
+    ) -> (Self, u64) {
+        use rayon::prelude::*;
+        let (x0, y0, x1, y1) = rect;
+        let bands: Vec<(Vec<bool>, u64)> = (y0..y1)
+            .step_by(16)
+            .collect::<Vec<_>>()
+            .into_par_iter()
+            .map(|y| edge_pixels(camera, embree, (x0, y, x1, (y + 16).min(y1))))
+            .collect();
+        // (Neighbouring bands each trace their shared row of corners: the count is of rays traced.)
+        let rays = bands.iter().map(|b| b.1).sum();
+        let flags: Vec<bool> = bands.into_iter().flat_map(|(f, _)| f).collect();
+        (
+            EdgeMask {
+                rect,
+                flags: flags.into(),
+            },
+            rays,
+        )
+    }
+
+    /// The flags of the tile `[x0, x1) x [y0, y1)` (row-major), or `None` when the tile is not
+    /// inside this mask's rectangle.
+    pub fn tile(&self, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> Option<Vec<bool>> {
+        let (rx0, ry0, rx1, ry1) = self.rect;
+        if x0 < rx0 || y0 < ry0 || x1 > rx1 || y1 > ry1 {
+            return None;
+        }
+        let w = (rx1 - rx0) as usize;
+        Some(
+            (y0..y1)
+                .flat_map(|y| {
+                    let row = (y - ry0) as usize * w;
+                    (x0..x1).map(move |x| row + (x - rx0) as usize)
+                })
+                .map(|i| self.flags[i])
+                .collect(),
+        )
+    }
+
+    /// How many pixels of the mask lie on an edge.
+    pub fn count(&self) -> usize {
+        self.flags.iter().filter(|&&e| e).count()
+    }
+}

@@ -10,7 +10,7 @@ use crate::estimate::{ExactFootprint, GatherCounts, GatherQuery, RadianceEstimat
 use crate::geometry::surface::facing;
 use crate::render::camera_path::{DiffuseVertex, PathTally, ViewPaths};
 use crate::render::direct_light::DirectLight;
-use crate::render::edges::edge_pixels;
+use crate::render::edges::{edge_pixels, EdgeMask};
 use crate::render::film::Film;
 use crate::render::split::Window;
 use crate::render::stats::{RayCounts, Stats};
@@ -53,6 +53,10 @@ pub struct RenderOptions {
     /// The part of the image to render (whole render tiles, see [`crate::render::split`]);
     /// `None`, the default, renders all of it.
     pub window: Option<Window>,
+    /// The edge pixels found beforehand ([`EdgeMask`]: a progressive run finds them once for
+    /// all its passes); `None`, the default, finds them tile by tile (when `edge_grid` exceeds
+    /// `view_grid`). Tiles outside the mask's rectangle find their own.
+    pub edges: Option<EdgeMask>,
 }
 
 /// A camera sample: `(pixel index in tile, x, y, cells per axis, cell [x0, y0, x1, y1])`.
@@ -71,6 +75,7 @@ impl Default for RenderOptions {
             progress: false,
             jitter: [0.5, 0.5],
             window: None,
+            edges: None,
         }
     }
 }
@@ -116,6 +121,12 @@ impl RenderOptions {
         self.progress = progress;
         self
     }
+    /// Sets [`RenderOptions::edges`].
+    pub fn with_edges(mut self, edges: Option<EdgeMask>) -> Self {
+        self.edges = edges;
+        self
+    }
+
     /// Sets [`RenderOptions::jitter`].
     pub fn with_jitter(mut self, jitter: [f64; 2]) -> Self {
         self.jitter = jitter;
@@ -340,10 +351,15 @@ impl<'a> TileRenderer<'a> {
         let mut reach = vec![false; pixels.len()];
         let mut tally = PathTally::default();
         let edge = if self.options.edge_grid > view_grid {
-            let (edge, corner_rays) =
-                edge_pixels(camera, self.embree, (tile.x0, tile.y0, tile.x1, tile.y1));
-            tally.rays.camera += corner_rays;
-            edge
+            let rect = (tile.x0, tile.y0, tile.x1, tile.y1);
+            match self.options.edges.as_ref().and_then(|m| m.tile(rect)) {
+                Some(edge) => edge,
+                None => {
+                    let (edge, corner_rays) = edge_pixels(camera, self.embree, rect);
+                    tally.rays.camera += corner_rays;
+                    edge
+                }
+            }
         } else {
             Vec::new()
         };

@@ -34,6 +34,7 @@ use crate::geometry::sampling::r2;
 use crate::photons::trace::PhotonOptions;
 use crate::photons::PhotonMaps;
 use crate::render::direct_light::DirectLight;
+use crate::render::edges::EdgeMask;
 use crate::render::image::{render_image, RenderOptions, RenderedImage};
 use crate::render::noise::NoiseEstimate;
 use crate::render::pass_sum::PassSum;
@@ -71,6 +72,16 @@ pub const DEFAULT_FOOTPRINT_SHADOW_RAYS: u32 = 2;
 /// "The closed scene").
 pub const DEFAULT_GATHER_EDGE_GRID: u32 = 4;
 
+/// Cells per axis of a pixel on a geometric edge for a long run of the default estimator,
+/// `integrated` (`--time-budget`, `--target-noise` or more than [`DEFAULT_PASSES`] passes,
+/// without final gathering; 1, off, for the default's two passes and for the other
+/// estimators). One camera ray a pass takes the whole pixel's footprint on whichever surface it
+/// meets, so a pixel over an occluding edge integrates light the edge hides: a bias no number of
+/// passes removes (17% at the worst pixel of `over-an-edge` after 150 passes; README, "Error
+/// against time"). The edge pixels are found once a run ([`crate::render::edges::EdgeMask`]),
+/// so a long run pays for the edge pixels' cells alone.
+pub const LONG_RUN_EDGE_GRID: u32 = 4;
+
 /// Global photons asked for per pass of the default estimator, `integrated` (the others ask for
 /// the thesis's 100,000): in an open scene almost every global emission is wasted (the
 /// canonical scene stores one in 250 with aimed bounces), and half as many emissions with
@@ -98,6 +109,8 @@ pub struct RenderDefaults {
     pub global_aim: f64,
     /// Footprint shadow rays per point light, along each axis.
     pub footprint_strata: u32,
+    /// Edge grid of a long progressive run without final gathering ([`LONG_RUN_EDGE_GRID`]).
+    pub long_run_edge_grid: u32,
 }
 
 impl RenderDefaults {
@@ -111,12 +124,14 @@ impl RenderDefaults {
                 global_photons: DEFAULT_GLOBAL_PHOTONS,
                 global_aim: DEFAULT_GLOBAL_AIM,
                 footprint_strata: DEFAULT_FOOTPRINT_SHADOW_RAYS,
+                long_run_edge_grid: LONG_RUN_EDGE_GRID,
             },
             _ => RenderDefaults {
                 caustic_photons: thesis.caustic_photons,
                 global_photons: thesis.global_photons,
                 global_aim: thesis.global_aim,
                 footprint_strata: 1,
+                long_run_edge_grid: 1,
             },
         }
     }
@@ -159,6 +174,16 @@ pub struct StopRules {
     pub target_noise: Option<f64>,
 }
 
+impl StopRules {
+    /// Whether these rules make a long run: a time budget, a target noise or more than
+    /// [`DEFAULT_PASSES`] passes (where [`LONG_RUN_EDGE_GRID`] applies).
+    pub fn is_long(&self) -> bool {
+        self.time_budget.is_some()
+            || self.target_noise.is_some()
+            || self.passes.is_some_and(|n| n > DEFAULT_PASSES)
+    }
+}
+
 /// Why a progressive render stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -189,6 +214,7 @@ pub struct PassReport {
 }
 
 /// A progressive render's settings: everything pass `i` depends on besides `i`.
+#[derive(Clone)]
 pub struct Progressive<'a> {
     /// The scene.
     pub scene: &'a Scene,
@@ -232,6 +258,25 @@ impl Progressive<'_> {
             .with_seed(derive_seed(self.render.seed, pass))
             .with_jitter(jitter(pass));
         (photons, estimator, render)
+    }
+
+    /// This run with its edge pixels found once for all its passes ([`EdgeMask`]), when its
+    /// render options ask for an edge grid and carry none yet; the corner rays are counted in
+    /// `stats`. [`Progressive::run`] and [`Progressive::render_range`] do this themselves; a
+    /// caller that renders pass after pass with [`Progressive::render_pass`] does it first.
+    pub fn with_edges_found(&self, stats: &mut Stats) -> Self {
+        let mut run = self.clone();
+        let r = &run.render;
+        if r.edge_grid > r.view_grid && r.edges.is_none() {
+            let camera = &self.scene.camera;
+            let rect = r.window.map_or((0, 0, camera.width, camera.height), |w| {
+                (w.x0, w.y0, w.x1, w.y1)
+            });
+            let (mask, corner_rays) = EdgeMask::find(camera, self.embree, rect);
+            stats.rays.camera += corner_rays;
+            run.render.edges = Some(mask);
+        }
+        run
     }
 
     /// Renders pass `pass` alone, recording its stages and counts in `stats`; `progress` shows
@@ -301,12 +346,13 @@ impl Progressive<'_> {
     /// Renders the passes of `range` and sums them (what a worker rendering part of a run does;
     /// [`PassSum::merge`] joins the parts).
     pub fn render_range(&self, range: Range<u64>, stats: &mut Stats) -> Result<PassSum, String> {
+        let run = self.with_edges_found(stats);
         let (width, height) = self.film_size();
         let mut sum = PassSum::new(width, height);
         for pass in range {
             let span = trace::span_with("pass", || serde_json::json!({ "pass": pass }));
             let mut pass_stats = Stats::default();
-            sum.add(&self.render_pass(pass, false, &mut pass_stats)?);
+            sum.add(&run.render_pass(pass, false, &mut pass_stats)?);
             drop(span);
             trace_pass(&pass_stats);
             stats.absorb_pass(pass_stats);
@@ -344,6 +390,7 @@ impl Progressive<'_> {
         let single = stop.passes == Some(1);
         let bar = crate::util::progress::pass_bar(progress && !single, stop.passes);
         let start = Instant::now();
+        let run = self.with_edges_found(stats);
         let (width, height) = self.film_size();
         let mut sum = PassSum::new(width, height);
         let mut noise = NoiseEstimate::default();
@@ -367,12 +414,7 @@ impl Progressive<'_> {
             let span = trace::span_with("pass", || serde_json::json!({ "pass": done }));
             let mut pass_stats = Stats::default();
             let pass_maps = if done == 0 { maps.take() } else { None };
-            sum.add(&self.render_pass_with(
-                done,
-                pass_maps,
-                progress && single,
-                &mut pass_stats,
-            )?);
+            sum.add(&run.render_pass_with(done, pass_maps, progress && single, &mut pass_stats)?);
             drop(span);
             trace_pass(&pass_stats);
             stats.absorb_pass(pass_stats);
