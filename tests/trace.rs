@@ -36,6 +36,8 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
         .arg(dir.path().join("a.exr"))
         .arg("--trace")
         .arg(&trace)
+        .arg("--stats-json")
+        .arg(dir.path().join("stats.json"))
         .output()
         .unwrap();
     assert!(
@@ -98,7 +100,17 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
             );
         }
     }
-    assert_eq!(named("C", "rays")[0]["args"]["camera"], 64 * 48);
+    // One camera ray a pixel and, this being a long run (3 passes), 15 more per edge pixel;
+    // the corner rays that found the edge pixels are the run's, once, not a pass's.
+    let stats: Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
+            .unwrap();
+    let edges = stats["edge_pixels"].as_u64().unwrap();
+    assert!(edges > 0 && edges % 3 == 0, "{edges}");
+    assert_eq!(
+        named("C", "rays")[0]["args"]["camera"],
+        64 * 48 + 15 * edges / 3
+    );
     let named_threads: Vec<&Value> = named("M", "thread_name")
         .iter()
         .map(|e| &e["tid"])
