@@ -409,11 +409,11 @@ fn a_long_integrated_run_splits_edge_pixels_by_default() {
     assert_eq!(edges("integrated", &["--passes", "2"]), 0);
     let three = edges("integrated", &["--passes", "3"]);
     assert!(
-        three > 30 && three % 3 == 0,
+        three > 30 && three.is_multiple_of(3),
         "{three} edge pixels over 3 passes"
     );
     let budget = edges("integrated", &["--time-budget", "0.5"]);
-    assert!(budget > 0 && budget % (three / 3) == 0, "{budget}");
+    assert!(budget > 0 && budget.is_multiple_of(three / 3), "{budget}");
     assert_eq!(
         edges("integrated", &["--passes", "3", "--edge-grid", "1"]),
         0

@@ -106,7 +106,7 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
             .unwrap();
     let edges = stats["edge_pixels"].as_u64().unwrap();
-    assert!(edges > 0 && edges % 3 == 0, "{edges}");
+    assert!(edges > 0 && edges.is_multiple_of(3), "{edges}");
     assert_eq!(
         named("C", "rays")[0]["args"]["camera"],
         64 * 48 + 15 * edges / 3
