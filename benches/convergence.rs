@@ -35,7 +35,7 @@ use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::reference::report::{self, Chart, Render, Report, Table};
 use photondiff::render::film::Film;
 use photondiff::render::pass_sum::PassSum;
-use photondiff::render::passes::{Progressive, RenderDefaults, DEFAULT_ALPHA};
+use photondiff::render::passes::{Progressive, RenderDefaults, StopRules, DEFAULT_ALPHA};
 use photondiff::render::stats::Stats;
 use photondiff::render::RenderOptions;
 use photondiff::scene::file::load_scene;
@@ -97,6 +97,12 @@ fn progressive(
     // thesis's settings.
     let defaults = RenderDefaults::for_estimator(kind);
     let photons = defaults.photons(PhotonOptions::default());
+    let last = budgets.iter().cloned().fold(0.0, f64::max);
+    // What `--time-budget` renders with (its edge grid).
+    let budgeted = StopRules {
+        time_budget: Some(Duration::from_secs_f64(last)),
+        ..StopRules::default()
+    };
     let estimator = EstimatorSettings {
         kind,
         k: 50,
@@ -113,12 +119,11 @@ fn progressive(
         estimator,
         render: RenderOptions::default()
             .with_view_grid(view_grid)
-            .with_edge_grid(defaults.long_run_edge_grid)
+            .with_edge_grid(defaults.edge_grid(0, &budgeted))
             .with_footprint_strata(defaults.footprint_strata)
             .with_threads(threads),
         alpha: DEFAULT_ALPHA,
     };
-    let last = budgets.iter().cloned().fold(0.0, f64::max);
     let mut sum = PassSum::new(scene.camera.width, scene.camera.height);
     let start = Instant::now();
     // As `Progressive::run` does: the edge pixels found once, within the budget.

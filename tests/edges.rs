@@ -7,6 +7,7 @@ use photondiff::photons::trace::PhotonOptions;
 use photondiff::render::edges::{edge_pixels, same_surface, EdgeMask};
 use photondiff::render::film::Film;
 use photondiff::render::passes::{Progressive, StopRules, DEFAULT_ALPHA};
+use photondiff::render::split::Window;
 use photondiff::render::stats::Stats;
 use photondiff::render::{render, RenderOptions, TILE_SIZE};
 use photondiff::scene::file::parse_scene;
@@ -300,12 +301,12 @@ fn bad_edge_grids_are_clear_errors() {
     }
 }
 
-/// Corner rays [`EdgeMask::find`] traces over a `w x h` image: bands of 16 rows, each with its
+/// Corner rays [`EdgeMask::find`] traces over a `w x h` image: bands of `TILE_SIZE` rows, each with its
 /// own rows of corners.
 fn band_corners(w: u32, h: u32) -> u64 {
     (0..h)
-        .step_by(16)
-        .map(|y| (w as u64 + 1) * (((y + 16).min(h) - y) as u64 + 1))
+        .step_by(TILE_SIZE as usize)
+        .map(|y| (w as u64 + 1) * (((y + TILE_SIZE).min(h) - y) as u64 + 1))
         .sum()
 }
 
@@ -316,7 +317,7 @@ fn an_edge_mask_found_once_renders_as_edges_found_tile_by_tile() {
     let embree = scene.build_embree(&device).unwrap();
     let (w, h) = (scene.camera.width, scene.camera.height);
     let (edge, _) = edge_pixels(&scene.camera, &embree, (0, 0, w, h));
-    let (mask, corner_rays) = EdgeMask::find(&scene.camera, &embree, (0, 0, w, h));
+    let (mask, corner_rays) = EdgeMask::find(&scene.camera, &embree, Window::full(w, h));
     assert_eq!(mask.tile((0, 0, w, h)).unwrap(), edge);
     let edges = edge.iter().filter(|&&e| e).count();
     assert!(edges > 100, "{edges} edge pixels");
@@ -344,7 +345,7 @@ fn an_edge_mask_found_once_renders_as_edges_found_tile_by_tile() {
     // No corner rays in the render itself: one ray per pixel and 15 more per edge pixel.
     assert_eq!(found.rays.camera, (w * h) as u64 + 15 * edges as u64);
     // A mask of part of the image: the tiles outside it find their own edges.
-    let (part, _) = EdgeMask::find(&scene.camera, &embree, (0, 0, 32, 32));
+    let (part, _) = EdgeMask::find(&scene.camera, &embree, Window::full(32, 32));
     assert_eq!(part.tile((32, 0, 48, 16)), None);
     let (partly, _) = direct(&options.clone().with_edges(Some(part)));
     assert!(partly == per_tile);
@@ -356,7 +357,7 @@ fn a_progressive_run_finds_its_edge_pixels_once() {
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let (w, h) = (scene.camera.width, scene.camera.height);
-    let (mask, _) = EdgeMask::find(&scene.camera, &embree, (0, 0, w, h));
+    let (mask, _) = EdgeMask::find(&scene.camera, &embree, Window::full(w, h));
     let edges = mask.count() as u64;
     let photons = PhotonOptions::default();
     let run = Progressive {

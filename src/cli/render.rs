@@ -7,9 +7,7 @@ use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::pass_part::write_pass_part;
-use photondiff::render::passes::{
-    PassReport, RenderDefaults, DEFAULT_ALPHA, DEFAULT_GATHER_EDGE_GRID, DEFAULT_PASSES,
-};
+use photondiff::render::passes::{PassReport, RenderDefaults, DEFAULT_ALPHA, DEFAULT_PASSES};
 use photondiff::render::stats::Stats;
 use photondiff::render::{
     load_photon_maps, Progressive, RenderOptions, StopRules, TileSplit, Window,
@@ -235,13 +233,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     stats.memory.bvh_build_peak_bytes = device.memory().peak;
     let options = RenderOptions::default()
         .with_view_grid(args.view_grid)
-        .with_edge_grid(args.edge_grid.unwrap_or(if args.gather_rays > 0 {
-            DEFAULT_GATHER_EDGE_GRID
-        } else if stop.is_long() {
-            defaults.long_run_edge_grid
-        } else {
-            1
-        }))
+        .with_edge_grid(
+            args.edge_grid
+                .unwrap_or(defaults.edge_grid(args.gather_rays, &stop)),
+        )
         .with_threads(args.threads)
         .with_seed(args.seed)
         .with_max_depth(args.max_depth)

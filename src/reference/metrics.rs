@@ -3,7 +3,7 @@
 //!
 //! `relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R)` over a region.
 
-use crate::embree::{self, Ray};
+use crate::embree::{self, Hit, Ray};
 use crate::render::film::{linear_to_srgb, Film};
 use crate::scene::{Light, Material, Scene};
 use glam::DVec3;
@@ -42,25 +42,40 @@ pub struct Regions {
     pub shadow: Vec<usize>,
 }
 
-/// Rays per side of the lattice that decides whether a pixel is seen on diffuse surfaces over
+/// Rays per side (odd: the pixel's centre is one of them) of the lattice that decides whether a pixel is seen on diffuse surfaces over
 /// its whole area ([`Regions::diffuse`]): a specular sliver narrower than about 1/8 of a pixel
 /// can slip between its rays.
 pub const COVER_LATTICE: usize = 9;
 
-/// Whether every ray of a [`COVER_LATTICE`]-square lattice spanning pixel `(x, y)` (corners
-/// included) first hits a diffuse surface.
-fn seen_on_diffuse(scene: &Scene, embree: &embree::Scene, x: usize, y: usize) -> bool {
-    let step = 1.0 / (COVER_LATTICE - 1) as f64;
-    (0..COVER_LATTICE).all(|j| {
-        (0..COVER_LATTICE).all(|i| {
-            let r = scene
-                .camera
-                .ray(x as f64 + i as f64 * step, y as f64 + j as f64 * step, 1.0);
-            embree
-                .intersect(&Ray::new(r.p, r.d))
-                .is_some_and(|hit| matches!(scene.material(hit.geom_id), Material::Diffuse { .. }))
+/// Pixel `(x, y)`'s centre ray direction, its first hit and the albedo there, when every ray
+/// of a [`COVER_LATTICE`]-square lattice spanning the pixel (corners included) first hits a
+/// diffuse surface. The centre, one of the lattice's points, is traced first: it settles most
+/// pixels that do not count.
+fn seen_on_diffuse(
+    scene: &Scene,
+    embree: &embree::Scene,
+    x: usize,
+    y: usize,
+) -> Option<(DVec3, Hit, DVec3)> {
+    let diffuse_hit = |px: f64, py: f64| {
+        let r = scene.camera.ray(px, py, 1.0);
+        let hit = embree.intersect(&Ray::new(r.p, r.d))?;
+        match *scene.material(hit.geom_id) {
+            Material::Diffuse { albedo } => Some((r.d, hit, albedo)),
+            _ => None,
+        }
+    };
+    let (x, y) = (x as f64, y as f64);
+    let centre = diffuse_hit(x + 0.5, y + 0.5)?;
+    let (mid, step) = (COVER_LATTICE / 2, 1.0 / (COVER_LATTICE - 1) as f64);
+    (0..COVER_LATTICE)
+        .all(|j| {
+            (0..COVER_LATTICE).all(|i| {
+                (i, j) == (mid, mid)
+                    || diffuse_hit(x + i as f64 * step, y + j as f64 * step).is_some()
+            })
         })
-    })
+        .then_some(centre)
 }
 
 /// Radiance the point and spot lights would reflect at a diffuse point `x` (normal `n` facing
@@ -105,18 +120,11 @@ impl Regions {
             .map(|y| {
                 let mut row = Vec::new();
                 for x in 0..w {
-                    let r = c.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
-                    let Some(hit) = embree.intersect(&Ray::new(r.p, r.d)) else {
+                    let Some((d, hit, albedo)) = seen_on_diffuse(scene, embree, x, y) else {
                         continue;
                     };
-                    let Material::Diffuse { albedo } = *scene.material(hit.geom_id) else {
-                        continue;
-                    };
-                    if !seen_on_diffuse(scene, embree, x, y) {
-                        continue;
-                    }
                     let i = y * w + x;
-                    let n = crate::geometry::surface::facing(hit.geometric_normal, r.d);
+                    let n = crate::geometry::surface::facing(hit.geometric_normal, d);
                     let direct = unblocked_direct(scene, hit.position, n, albedo);
                     let value = reference.pixels[i];
                     let class = if direct.max_element() > 0.0

@@ -13,6 +13,8 @@
 //! the cells of the few edge pixels.
 
 use crate::embree::{self, Hit, Ray, PACKET_WIDTH};
+use crate::render::image::TILE_SIZE;
+use crate::render::split::Window;
 use crate::scene::camera::Camera;
 use glam::DVec3;
 
@@ -74,35 +76,31 @@ pub fn edge_pixels(
 /// pass.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EdgeMask {
-    /// The rectangle `[x0, x1) x [y0, y1)` in pixels.
-    rect: (u32, u32, u32, u32),
-    /// Row-major flags over the rectangle.
+    /// The part of the image the flags cover.
+    window: Window,
+    /// Row-major flags over the window.
     flags: std::sync::Arc<[bool]>,
 }
 
 impl EdgeMask {
-    /// The edge pixels of `rect` (`[x0, x1) x [y0, y1)`), bands of rows in parallel, and the
-    /// corner rays traced: the flags are [`edge_pixels`]'s, which depend on a pixel's own
-    /// corners alone.
-    pub fn find(
-        camera: &Camera,
-        embree: &embree::Scene,
-        rect: (u32, u32, u32, u32),
-    ) -> (Self, u64) {
+    /// The edge pixels of `window`, bands of [`TILE_SIZE`] rows in parallel, and the corner
+    /// rays traced: the flags are [`edge_pixels`]'s, which depend on a pixel's own corners
+    /// alone.
+    pub fn find(camera: &Camera, embree: &embree::Scene, window: Window) -> (Self, u64) {
         use rayon::prelude::*;
-        let (x0, y0, x1, y1) = rect;
+        let Window { x0, y0, x1, y1 } = window;
         let bands: Vec<(Vec<bool>, u64)> = (y0..y1)
-            .step_by(16)
+            .step_by(TILE_SIZE as usize)
             .collect::<Vec<_>>()
             .into_par_iter()
-            .map(|y| edge_pixels(camera, embree, (x0, y, x1, (y + 16).min(y1))))
+            .map(|y| edge_pixels(camera, embree, (x0, y, x1, (y + TILE_SIZE).min(y1))))
             .collect();
         // (Neighbouring bands each trace their shared row of corners: the count is of rays traced.)
         let rays = bands.iter().map(|b| b.1).sum();
         let flags: Vec<bool> = bands.into_iter().flat_map(|(f, _)| f).collect();
         (
             EdgeMask {
-                rect,
+                window,
                 flags: flags.into(),
             },
             rays,
@@ -110,13 +108,18 @@ impl EdgeMask {
     }
 
     /// The flags of the tile `[x0, x1) x [y0, y1)` (row-major), or `None` when the tile is not
-    /// inside this mask's rectangle.
+    /// inside this mask's window.
     pub fn tile(&self, (x0, y0, x1, y1): (u32, u32, u32, u32)) -> Option<Vec<bool>> {
-        let (rx0, ry0, rx1, ry1) = self.rect;
+        let Window {
+            x0: rx0,
+            y0: ry0,
+            x1: rx1,
+            y1: ry1,
+        } = self.window;
         if x0 < rx0 || y0 < ry0 || x1 > rx1 || y1 > ry1 {
             return None;
         }
-        let w = (rx1 - rx0) as usize;
+        let w = self.window.width() as usize;
         Some(
             (y0..y1)
                 .flat_map(|y| {

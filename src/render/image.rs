@@ -55,7 +55,7 @@ pub struct RenderOptions {
     pub window: Option<Window>,
     /// The edge pixels found beforehand ([`EdgeMask`]: a progressive run finds them once for
     /// all its passes); `None`, the default, finds them tile by tile (when `edge_grid` exceeds
-    /// `view_grid`). Tiles outside the mask's rectangle find their own.
+    /// `view_grid`). Tiles outside the mask's window find their own.
     pub edges: Option<EdgeMask>,
 }
 

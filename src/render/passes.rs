@@ -39,6 +39,7 @@ use crate::render::image::{render_image, RenderOptions, RenderedImage};
 use crate::render::noise::NoiseEstimate;
 use crate::render::pass_sum::PassSum;
 use crate::render::photon_pass::trace_photon_maps;
+use crate::render::split::Window;
 use crate::render::stats::Stats;
 use crate::scene::Scene;
 use crate::util::rng::derive_seed;
@@ -110,7 +111,7 @@ pub struct RenderDefaults {
     /// Footprint shadow rays per point light, along each axis.
     pub footprint_strata: u32,
     /// Edge grid of a long progressive run without final gathering ([`LONG_RUN_EDGE_GRID`]).
-    pub long_run_edge_grid: u32,
+    long_run_edge_grid: u32,
 }
 
 impl RenderDefaults {
@@ -133,6 +134,20 @@ impl RenderDefaults {
                 footprint_strata: 1,
                 long_run_edge_grid: 1,
             },
+        }
+    }
+
+    /// The edge grid of a render with `gather_rays` gather rays that stops by `stop`:
+    /// [`DEFAULT_GATHER_EDGE_GRID`] with final gathering, this estimator's long-run grid
+    /// ([`LONG_RUN_EDGE_GRID`] for `integrated`) in a long run ([`StopRules::is_long`]), else 1
+    /// (off). `--edge-grid` overrides it.
+    pub fn edge_grid(&self, gather_rays: u32, stop: &StopRules) -> u32 {
+        if gather_rays > 0 {
+            DEFAULT_GATHER_EDGE_GRID
+        } else if stop.is_long() {
+            self.long_run_edge_grid
+        } else {
+            1
         }
     }
 
@@ -269,10 +284,10 @@ impl Progressive<'_> {
         let r = &run.render;
         if r.edge_grid > r.view_grid && r.edges.is_none() {
             let camera = &self.scene.camera;
-            let rect = r.window.map_or((0, 0, camera.width, camera.height), |w| {
-                (w.x0, w.y0, w.x1, w.y1)
-            });
-            let (mask, corner_rays) = EdgeMask::find(camera, self.embree, rect);
+            let window = r
+                .window
+                .unwrap_or(Window::full(camera.width, camera.height));
+            let (mask, corner_rays) = EdgeMask::find(camera, self.embree, window);
             stats.rays.camera += corner_rays;
             run.render.edges = Some(mask);
         }
