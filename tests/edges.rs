@@ -1,6 +1,8 @@
 //! Pixels on geometric edges (`--edge-grid`): which pixels they are, that they alone are
 //! rendered on the finer grid, and that final gathering spends a pixel's rays over its cells.
 
+mod common;
+use common::render_stats;
 use photondiff::embree::{Device, Ray};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
@@ -235,30 +237,9 @@ fn ball_stats(args: &[&str]) -> serde_json::Value {
 /// Renders `BALL_IN_A_SPHERE` with `--estimator ESTIMATOR --photons 2000` and `args`; returns
 /// the statistics JSON.
 fn ball_stats_as(estimator: &str, args: &[&str]) -> serde_json::Value {
-    let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, BALL_IN_A_SPHERE).unwrap();
-    let stats = dir.path().join("stats.json");
-    let out = Command::new(env!("CARGO_BIN_EXE_photondiff"))
-        .args([
-            "render",
-            "--quiet",
-            "--estimator",
-            estimator,
-            "--photons",
-            "2000",
-        ])
-        .args(args)
-        .arg("--stats-json")
-        .arg(&stats)
-        .arg("-o")
-        .arg(dir.path().join("img.exr"))
-        .arg(&scene)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stderr}");
-    serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
+    let mut all = vec!["--quiet", "--estimator", estimator, "--photons", "2000"];
+    all.extend_from_slice(args);
+    render_stats(BALL_IN_A_SPHERE, &all)
 }
 
 /// With final gathering on, edge pixels are split 4 x 4 by default (`--edge-grid` left out),

@@ -4,7 +4,7 @@
 //! overlap and leave gaps.
 
 mod common;
-use common::floor_photon;
+use common::{floor_photon, render_stats};
 
 use glam::{DVec2, DVec3};
 use photondiff::estimate::integrated::IntegratedEstimate;
@@ -269,30 +269,6 @@ fn first_order_parallelograms_miscount_a_photon_on_a_pixel_corner() {
             "{position}: {first_order}"
         );
     }
-}
-
-/// Renders `scene` (TOML text) with `args` through the command line; the statistics JSON.
-fn render_stats(scene: &str, args: &[&str]) -> serde_json::Value {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("scene.toml");
-    std::fs::write(&path, scene).unwrap();
-    let stats = dir.path().join("stats.json");
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
-        .arg("render")
-        .arg(&path)
-        .arg("-o")
-        .arg(dir.path().join("image.exr"))
-        .arg("--stats-json")
-        .arg(&stats)
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
 }
 
 #[test]

@@ -1,5 +1,8 @@
 //! Helpers shared by test files (each takes them with `mod common;`).
 
+// Each test file is its own crate and uses some of these only.
+#![allow(dead_code)]
+
 use glam::DVec3;
 use photondiff::photons::footprint::{footprint, FootprintLimits, Guards};
 use photondiff::photons::map::Photon;
@@ -46,4 +49,28 @@ pub fn floor_photon(position: DVec3, a: DVec3, b: DVec3, power: f64) -> Photon {
     };
     let f = footprint(a, b, DVec3::Y, &limits, 1.0, &mut Guards::default());
     Photon::new(position, DVec3::Y, -DVec3::Y, DVec3::splat(power), &f)
+}
+
+/// Renders `scene` (TOML text) with `args` through the command line; the statistics JSON.
+pub fn render_stats(scene: &str, args: &[&str]) -> serde_json::Value {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, scene).unwrap();
+    let stats = dir.path().join("stats.json");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("render")
+        .arg(&path)
+        .arg("-o")
+        .arg(dir.path().join("image.exr"))
+        .arg("--stats-json")
+        .arg(&stats)
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
 }
