@@ -1,6 +1,7 @@
 //! Where the focal caustic's light lands, without any estimate: caustic photons of
 //! `scenes/stress/focal-caustic.toml` traced as the renderer traces them (20 x 200,000, seeds
-//! 0..20), each hit binned into the pixel it projects to, and the share of the light around the
+//! 0..20), each hit binned into the pixel it projects to (weighted by image area per floor
+//! area there, as a pixel averages over the image), and the share of the light around the
 //! focus that falls in the two pixels the focus lies between, (79, 66) and (80, 66), for boxes
 //! of 2k x (2k + 1) pixels around them. The same shares of an image (its radiance summed over
 //! the same pixels) tell whether a render concentrates the focus as the photons do
@@ -35,7 +36,15 @@ fn main() -> Result<(), String> {
                 continue;
             };
             if x >= 0.0 && y >= 0.0 && (x as usize) < w && (y as usize) < h {
-                power[y as usize * w + x as usize] += p.power.element_sum() / 3.0;
+                // Weighted by image area per floor area where it lands, as the light tracer
+                // splats and a pixel (a box on the image) averages: binned by power alone,
+                // the row beside the focus came out 1.2% brighter than in the reference.
+                let to_eye = scene.camera.eye - p.ray.p;
+                let d = to_eye.length();
+                let cos_floor = p.normal.dot(to_eye / d).abs();
+                let cos_camera = scene.camera.forward.dot(-to_eye / d);
+                let jacobian = cos_floor / (d * d * cos_camera.powi(3));
+                power[y as usize * w + x as usize] += p.power.element_sum() / 3.0 * jacobian;
             }
         }
     }

@@ -81,6 +81,15 @@ pub fn parallelogram_means_scalar(batch: &ParallelogramBatch, out: &mut Vec<f64>
     }
 }
 
+/// The point `s + alpha a + beta b = 0` in the footprint's coordinates `(alpha, beta)` (filter
+/// space; `a`, `b` independent): where the photon's centre lies, or with `s - c` for `s`, the
+/// point `c`.
+#[inline]
+fn photon_at(s: DVec2, a: DVec2, b: DVec2) -> DVec2 {
+    let det = a.perp_dot(b);
+    DVec2::new(b.perp_dot(s), s.perp_dot(a)) / det
+}
+
 /// Scratch space reused across gathers on one thread.
 #[derive(Default)]
 struct Scratch {
@@ -89,8 +98,12 @@ struct Scratch {
     batch: ParallelogramBatch,
     means: Vec<f64>,
     general_quads: Vec<u32>,
+    /// The filter space `(s, a, b)` of each of `general_quads`.
+    quad_frames: Vec<[DVec2; 3]>,
     quads: QuadBatch,
     quad_means: Vec<f64>,
+    /// Where each mean's weight lies ([`quad_means`]).
+    centroids: Vec<DVec2>,
 }
 
 thread_local! {
@@ -137,6 +150,7 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             scratch.general.clear();
             scratch.quads.clear();
             scratch.general_quads.clear();
+            scratch.quad_frames.clear();
             let mut total = Vec3::ZERO;
             for &i in &scratch.found {
                 let p = &self.map.photons[i as usize];
@@ -155,10 +169,27 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                 let (a, b) = (filter(f[0]), filter(f[1]));
                 let overlap = match quad.as_ref().map(|(frame, _)| frame.classify(s, a, b)) {
                     Some(QuadOverlap::None) => Overlap::None,
-                    Some(QuadOverlap::Mean(mean)) => Overlap::Mean(mean),
+                    // The quadrilateral inside the disc (or a point to it): weighted at the
+                    // kernel's centroid over it.
+                    Some(QuadOverlap::Mean(mean)) => match q.exact {
+                        Some(e) if e.weight != [1.0, 0.0, 0.0] => {
+                            let frame = &e.frame;
+                            Overlap::Mean(mean * e.weight_at(frame.kernel_centroid(s, a, b, mean)))
+                        }
+                        _ => Overlap::Mean(mean),
+                    },
+                    // The kernel's mass lies about the photon: the image-area weight there
+                    // (exact for a weight linear over the footprint).
+                    Some(QuadOverlap::DiscInside(mean)) => {
+                        let w = q.exact.map_or(1.0, |e| e.weight_at(photon_at(s, a, b)));
+                        Overlap::Mean(mean * w)
+                    }
+                    // Weighted where the kernel's mass in the footprint lies (its centroid,
+                    // from the general formula's batch).
                     Some(QuadOverlap::General(vertices)) => {
                         scratch.quads.push(vertices);
                         scratch.general_quads.push(i);
+                        scratch.quad_frames.push([s, a, b]);
                         continue;
                     }
                     // No exact footprint, or one too thin or folded: the parallelogram.
@@ -179,7 +210,17 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                 }
             }
             parallelogram_means(&mut scratch.batch, &mut scratch.means);
-            quad_means(&mut scratch.quads, &mut scratch.quad_means);
+            quad_means(
+                &mut scratch.quads,
+                &mut scratch.quad_means,
+                &mut scratch.centroids,
+            );
+            if let Some(e) = q.exact {
+                let frames = scratch.centroids.iter().zip(&scratch.quad_frames);
+                for (mean, (&c, &[s, a, b])) in scratch.quad_means.iter_mut().zip(frames) {
+                    *mean *= e.weight_at(photon_at(s - c, a, b));
+                }
+            }
             let means = scratch.means.iter().chain(&scratch.quad_means);
             for (&i, &mean) in scratch
                 .general

@@ -418,12 +418,16 @@ impl<'a> TileRenderer<'a> {
                         centred.position -= v.ray.dp[0] * (jx - 0.5) + v.ray.dp[1] * (jy - 0.5);
                     }
                     // The cell's exact footprint where the hit is seen directly, once for
-                    // every estimator that integrates over it.
+                    // every estimator that integrates over it, weighted by the image area its
+                    // parts stand for (the pixel filter is a box on the image, not on the
+                    // surface).
                     if wants_exact && v.depth == 0 {
                         let (cell, n) = (chunk[v.sample].4, v.hit.geometric_normal);
+                        let (x, f) = (centred.position, &v.ray.dp);
                         centred.exact = camera
                             .rectangle_on_plane(cell, v.hit.position, n)
-                            .and_then(|c| ExactFootprint::new(&c, centred.position, &v.ray.dp));
+                            .and_then(|c| ExactFootprint::new(&c, x, f))
+                            .map(|e| e.seen_from(camera.eye, camera.forward, x, f));
                     }
                     for (k, estimator) in self.estimators.iter().enumerate() {
                         let at = if estimator.integrates_view_footprint() {

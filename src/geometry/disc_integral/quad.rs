@@ -17,7 +17,8 @@
 //! vertices' centroid, which keeps them exact for small quadrilaterals far from the origin),
 //! the disc inside (every `h >= 1`), a separating side (some `h <= -1`).
 
-use super::rows::Rows;
+use super::moment::first_moment;
+use super::rows::{Rows, LANES};
 use super::{one_arc_flux, side, Lane, ONE_ARC_MAX_CIRCUMRADIUS, POINT_SIZE};
 use glam::DVec2;
 use std::f64::consts::FRAC_PI_2;
@@ -28,8 +29,13 @@ use wide::f64x4;
 pub enum QuadOverlap {
     /// No overlap with the disc's interior: the mean is 0.
     None,
-    /// The mean of `(1 - |u|^2)+` over the quadrilateral, in closed form.
+    /// The mean of `(1 - |u|^2)+` over the quadrilateral, in closed form (the quadrilateral
+    /// inside the disc, or so small that the kernel is its value at the centre).
     Mean(f64),
+    /// The disc lies inside the quadrilateral: the mean is `(pi / 2) / area`, and the kernel's
+    /// mass sits about the disc's centre (what a weight over the quadrilateral needs to know,
+    /// `estimate::ExactFootprint::weight_at`).
+    DiscInside(f64),
     /// Needs the general formula ([`general_quad`]) on these vertices (counter-clockwise).
     General([DVec2; 4]),
     /// Not a convex quadrilateral of usable width (crossed, folded or nearly flat): the caller
@@ -38,10 +44,11 @@ pub enum QuadOverlap {
 }
 
 /// The four sides of the counter-clockwise quadrilateral `(x[k], y[k])` as [`side`] takes them,
-/// `(h, t0, t1)` each, and its area.
+/// `(h, t0, t1)` each, their unit tangents, and its area.
 #[inline(always)]
-fn quad_sides<T: Lane>(x: [T; 4], y: [T; 4]) -> ([(T, T, T); 4], T) {
+fn quad_sides<T: Lane>(x: [T; 4], y: [T; 4]) -> QuadSides<T> {
     let mut sides = [(T::splat(0.0), T::splat(0.0), T::splat(0.0)); 4];
+    let mut tangents = [(T::splat(0.0), T::splat(0.0)); 4];
     let mut twice_area = T::splat(0.0);
     for k in 0..4 {
         let (px, py, qx, qy) = (x[k], y[k], x[(k + 1) % 4], y[(k + 1) % 4]);
@@ -51,17 +58,21 @@ fn quad_sides<T: Lane>(x: [T; 4], y: [T; 4]) -> ([(T, T, T); 4], T) {
         // t1 = q . tau = p . tau + l.
         let t0 = (px * ex + py * ey) * inv;
         sides[k] = ((px * ey - py * ex) * inv, t0, t0 + l);
+        tangents[k] = (ex * inv, ey * inv);
         // Relative to the first vertex: no cancellation for a small quadrilateral far away.
         twice_area = twice_area + (px - x[0]) * (qy - y[0]) - (qx - x[0]) * (py - y[0]);
     }
-    (sides, T::splat(0.5) * twice_area)
+    (sides, tangents, T::splat(0.5) * twice_area)
 }
+
+/// What [`quad_sides`] gives: sides `(h, t0, t1)`, unit tangents, area.
+type QuadSides<T> = ([(T, T, T); 4], [(T, T); 4], T);
 
 /// `(integral over Q ∩ D of (1 - |u|^2), area of Q)` for the convex counter-clockwise
 /// quadrilateral `Q` with vertices `(x[k], y[k])`, four `atan2`s (any size).
 #[inline(always)]
 pub fn general_quad<T: Lane>(x: [T; 4], y: [T; 4]) -> (T, T) {
-    let (e, area) = quad_sides(x, y);
+    let (e, _, area) = quad_sides(x, y);
     let integral = e
         .iter()
         .fold(T::splat(0.0), |sum, &(h, t0, t1)| sum + side(h, t0, t1));
@@ -72,7 +83,7 @@ pub fn general_quad<T: Lane>(x: [T; 4], y: [T; 4]) -> (T, T) {
 /// vertices lie within [`ONE_ARC_MAX_CIRCUMRADIUS`] of their centroid ([`quad_takes_one_arc`]).
 #[inline(always)]
 pub fn general_quad_one_arc<T: Lane>(x: [T; 4], y: [T; 4]) -> (T, T) {
-    let (e, area) = quad_sides(x, y);
+    let (e, _, area) = quad_sides(x, y);
     (one_arc_flux(e), area)
 }
 
@@ -120,6 +131,10 @@ pub struct QuadFrame {
     moments: [f64; 5],
     /// Signed area in `(alpha, beta)` (positive counter-clockwise).
     area: f64,
+    /// Area means about `centre` (`w = (alpha, beta) - centre`) of `w_a`, `w_b`, `w_a^2`,
+    /// `w_a w_b`, `w_b^2`, `w_a^3`, `w_a^2 w_b`, `w_a w_b^2`, `w_b^3`: where the kernel's mass
+    /// lies when the quadrilateral is inside the disc ([`QuadFrame::kernel_centroid`]).
+    centred: [f64; 9],
 }
 
 impl QuadFrame {
@@ -139,7 +154,8 @@ impl QuadFrame {
         if area == 0.0 || area.is_nan() || !turns.into_iter().all(|t| t * area > 0.0) {
             return None;
         }
-        let mut sums = [0.0; 5];
+        // Polygon moments by Green's theorem, fan triangle (0, p, q) by fan triangle.
+        let mut sums = [0.0; 9];
         for k in 0..4 {
             let (p, q) = (w[k], w[(k + 1) % 4]);
             let c = cross(k);
@@ -148,9 +164,23 @@ impl QuadFrame {
             sums[2] += c * (p.x * p.x + p.x * q.x + q.x * q.x) / 12.0;
             sums[3] += c * (p.x * q.y + 2.0 * p.x * p.y + 2.0 * q.x * q.y + q.x * p.y) / 24.0;
             sums[4] += c * (p.y * p.y + p.y * q.y + q.y * q.y) / 12.0;
+            let cubic = |p: f64, q: f64| p * p * p + p * p * q + p * q * q + q * q * q;
+            // x^2 y (and, with the roles swapped, x y^2).
+            let mixed = |px: f64, py: f64, qx: f64, qy: f64| {
+                3.0 * px * px * py
+                    + px * px * qy
+                    + 2.0 * px * qx * (py + qy)
+                    + qx * qx * py
+                    + 3.0 * qx * qx * qy
+            };
+            sums[5] += c * cubic(p.x, q.x) / 20.0;
+            sums[6] += c * mixed(p.x, p.y, q.x, q.y) / 60.0;
+            sums[7] += c * mixed(p.y, p.x, q.y, q.x) / 60.0;
+            sums[8] += c * cubic(p.y, q.y) / 20.0;
         }
+        let centred = sums.map(|m| m / area);
         // Moments about the origin from those about the centre.
-        let [mx, my, mxx, mxy, myy] = sums.map(|m| m / area);
+        let [mx, my, mxx, mxy, myy, ..] = centred;
         let (cx, cy) = (centre.x, centre.y);
         Some(QuadFrame {
             alpha: v.map(|p| p.x),
@@ -165,7 +195,46 @@ impl QuadFrame {
                 myy + 2.0 * cy * my + cy * cy,
             ],
             area,
+            centred,
         })
+    }
+
+    /// Where the weight `(1 - |u|^2)` has its centroid over the quadrilateral `s + alpha a +
+    /// beta b`, in `(alpha, beta)`, when the quadrilateral lies inside the disc and `mean` is
+    /// that weight's mean over it ([`QuadOverlap::Mean`]): from the area moments up to the
+    /// third order, since `(1 - |u|^2) w` is a cubic in `w`.
+    #[inline]
+    pub fn kernel_centroid(&self, s: DVec2, a: DVec2, b: DVec2, mean: f64) -> DVec2 {
+        let [m_a, m_b, m_aa, m_ab, m_bb, m_aaa, m_aab, m_abb, m_bbb] = self.centred;
+        // u = c + w_a a + w_b b, c the centre's image.
+        let c = s + a * self.centre.x + b * self.centre.y;
+        let (k0, ca, cb) = (1.0 - c.length_squared(), 2.0 * c.dot(a), 2.0 * c.dot(b));
+        let (aa, ab, bb) = (a.length_squared(), 2.0 * a.dot(b), b.length_squared());
+        let along_a = k0 * m_a - ca * m_aa - cb * m_ab - aa * m_aaa - ab * m_aab - bb * m_abb;
+        let along_b = k0 * m_b - ca * m_ab - cb * m_bb - aa * m_aab - ab * m_abb - bb * m_bbb;
+        if mean > 0.0 {
+            self.centre + DVec2::new(along_a, along_b) / mean
+        } else {
+            self.centre
+        }
+    }
+
+    /// The area centroid in `(alpha, beta)`.
+    pub fn centroid(&self) -> DVec2 {
+        DVec2::new(self.moments[0], self.moments[1])
+    }
+
+    /// The least and greatest `(alpha, beta)` of the vertices.
+    pub fn bounds(&self) -> [DVec2; 2] {
+        let lo = DVec2::new(
+            self.alpha.into_iter().fold(f64::INFINITY, f64::min),
+            self.beta.into_iter().fold(f64::INFINITY, f64::min),
+        );
+        let hi = DVec2::new(
+            self.alpha.into_iter().fold(f64::NEG_INFINITY, f64::max),
+            self.beta.into_iter().fold(f64::NEG_INFINITY, f64::max),
+        );
+        [lo, hi]
     }
 
     /// Settles the quadrilateral `s + alpha a + beta b` against the unit disc where a closed
@@ -231,7 +300,7 @@ impl QuadFrame {
             all_outside &= h >= 1.0;
         }
         if all_outside {
-            return QuadOverlap::Mean(FRAC_PI_2 / area);
+            return QuadOverlap::DiscInside(FRAC_PI_2 / area);
         }
         QuadOverlap::General(v)
     }
@@ -253,7 +322,7 @@ pub fn classify_quad(v: [DVec2; 4]) -> QuadOverlap {
 pub fn quad_mean(v: [DVec2; 4]) -> Option<f64> {
     match classify_quad(v) {
         QuadOverlap::None => Some(0.0),
-        QuadOverlap::Mean(m) => Some(m),
+        QuadOverlap::Mean(m) | QuadOverlap::DiscInside(m) => Some(m),
         QuadOverlap::General(v) => {
             let (integral, area) = general_quad_either(v);
             Some((integral / area).max(0.0))
@@ -273,10 +342,21 @@ impl Rows<8> {
     }
 }
 
+/// The first moment of `(1 - |u|^2)+` over the convex counter-clockwise quadrilateral
+/// `(x[k], y[k])` ∩ the unit disc ([`super::moment`]).
+#[inline(always)]
+pub fn quad_first_moment<T: Lane>(x: [T; 4], y: [T; 4]) -> (T, T) {
+    let (sides, tangents, _) = quad_sides(x, y);
+    first_moment(&sides, &tangents)
+}
+
 /// For each quadrilateral of `batch`, the mean of `(1 - |u|^2)+` over it by the general
-/// formula, four at a time in SIMD lanes (as `estimate::integrated::parallelogram_means`).
-pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>) {
+/// formula, four at a time in SIMD lanes (as `estimate::integrated::parallelogram_means`), and
+/// where that weight's mass lies: its centroid over the quadrilateral ∩ the disc (the origin
+/// where the mean is 0).
+pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>, centroids: &mut Vec<DVec2>) {
     out.clear();
+    centroids.clear();
     let len = batch.len();
     // Padding: unit squares far from the disc.
     let far = [1e6, 1e6 + 1.0, 1e6 + 1.0, 1e6, 0.0, 0.0, 1.0, 1.0];
@@ -287,9 +367,15 @@ pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>) {
         } else {
             general_quad(x, y)
         };
+        let (mx, my) = quad_first_moment(x, y);
+        let positive = integral.simd_gt(f64x4::ZERO);
+        let inv = positive.bitselect(f64x4::ONE / integral, f64x4::ZERO);
+        let (cx, cy) = ((mx * inv).to_array(), (my * inv).to_array());
         out.extend_from_slice(&(integral / area).max(f64x4::ZERO).to_array());
+        centroids.extend((0..LANES).map(|k| DVec2::new(cx[k], cy[k])));
     }
     out.truncate(len);
+    centroids.truncate(len);
 }
 
 #[cfg(test)]
@@ -391,6 +477,90 @@ mod tests {
         ));
     }
 
+    /// `(integral, first moment)` of `(1 - |u|^2)+` over the convex polygon `v` by the
+    /// midpoint rule on an `n x n` grid over its bounding box.
+    fn brute_force(v: [DVec2; 4], n: usize) -> (f64, DVec2) {
+        let (lo, hi) = v
+            .iter()
+            .fold((DVec2::INFINITY, DVec2::NEG_INFINITY), |(l, h), &p| {
+                (l.min(p), h.max(p))
+            });
+        let cell = (hi - lo) / n as f64;
+        let inside = |p: DVec2| (0..4).all(|k| (v[(k + 1) % 4] - v[k]).perp_dot(p - v[k]) >= 0.0);
+        let (mut integral, mut moment) = (0.0, DVec2::ZERO);
+        for i in 0..n {
+            for j in 0..n {
+                let p = lo + cell * DVec2::new(i as f64 + 0.5, j as f64 + 0.5);
+                let k = (1.0 - p.length_squared()).max(0.0);
+                if k > 0.0 && inside(p) {
+                    integral += k;
+                    moment += p * k;
+                }
+            }
+        }
+        let da = cell.x * cell.y;
+        (integral * da, moment * da)
+    }
+
+    fn trapezoid(c: DVec2, size: f64) -> [DVec2; 4] {
+        [
+            c + DVec2::new(-0.5, -0.5) * size,
+            c + DVec2::new(0.5, -0.4) * size,
+            c + DVec2::new(0.6, 0.55) * size,
+            c + DVec2::new(-0.45, 0.5) * size,
+        ]
+    }
+
+    #[test]
+    fn the_first_moment_equals_quadrature_across_the_circle() {
+        // Trapezoids across the circle, inside it, holding it, and touching it at a corner.
+        for k in 0..24 {
+            let t = k as f64 * 0.61;
+            let size = [0.3, 0.9, 2.5][k % 3];
+            let c = DVec2::new(t.cos(), t.sin()) * [0.2, 0.8, 1.1, 1.3][k % 4];
+            let v = trapezoid(c, size);
+            let (x, y) = (v.map(|p| p.x), v.map(|p| p.y));
+            let (mx, my) = quad_first_moment(x, y);
+            let (integral, moment) = brute_force(v, 1500);
+            let tolerance = 2e-5 * size * size;
+            assert!(
+                (mx - moment.x).abs() <= tolerance && (my - moment.y).abs() <= tolerance,
+                "{k}: ({mx}, {my}) vs {moment} (integral {integral})"
+            );
+        }
+    }
+
+    #[test]
+    fn inside_the_disc_the_moments_centroid_is_the_first_moments() {
+        // A quadrilateral frame placed by (s, a, b) inside the disc: the kernel's centroid from
+        // the frame's area moments equals the general formula's first moment over its
+        // integral (tested against quadrature above), mapped back to the frame's coordinates.
+        let shape = trapezoid(DVec2::new(0.05, -0.02), 1.0);
+        let frame = QuadFrame::new(shape).unwrap();
+        for k in 0..20 {
+            let t = k as f64 * 0.47;
+            let (s, a, b) = (
+                DVec2::new(0.3 * t.cos(), 0.25 * t.sin()),
+                DVec2::new(0.3 + 0.1 * t.sin(), 0.05) * 0.8,
+                DVec2::new(-0.06, 0.25 + 0.1 * t.cos()) * 0.8,
+            );
+            let QuadOverlap::Mean(mean) = frame.classify(s, a, b) else {
+                panic!("{k}: not inside");
+            };
+            let centroid = frame.kernel_centroid(s, a, b, mean);
+            let v = shape.map(|p| s + a * p.x + b * p.y);
+            let (integral, _) = general_quad_either(v);
+            let (mx, my) = quad_first_moment(v.map(|p| p.x), v.map(|p| p.y));
+            let c = DVec2::new(mx, my) / integral - s;
+            let det = a.perp_dot(b);
+            let expected = DVec2::new(c.perp_dot(b), a.perp_dot(c)) / det;
+            assert!(
+                (centroid - expected).length() <= 1e-12,
+                "{k}: {centroid} vs {expected}"
+            );
+        }
+    }
+
     #[test]
     fn simd_lanes_equal_the_scalar_formula() {
         let mut batch = QuadBatch::default();
@@ -409,8 +579,8 @@ mod tests {
             let (integral, area) = general_quad_either(v);
             expected.push((integral / area).max(0.0));
         }
-        let mut simd = Vec::new();
-        quad_means(&mut batch, &mut simd);
+        let (mut simd, mut centroids) = (Vec::new(), Vec::new());
+        quad_means(&mut batch, &mut simd, &mut centroids);
         assert_eq!(simd.len(), 23);
         for (a, b) in simd.iter().zip(&expected) {
             assert!((a - b).abs() <= 1e-14, "{a} {b}");
