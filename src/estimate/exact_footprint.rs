@@ -33,6 +33,10 @@ pub struct ExactFootprint {
     pub weight: [f64; 3],
     /// The quadrilateral's bounding box in `(alpha, beta)`.
     pub bounds: [DVec2; 2],
+    /// [`ExactFootprint::weight_inside`] prepared: the weight at the frame's centre, and the
+    /// weight's gradient against each of the frame's centred moments (`QuadFrame::
+    /// kernel_centroid`'s sums, combined over `alpha` and `beta` once per gather).
+    inside: [f64; 7],
 }
 
 impl ExactFootprint {
@@ -68,6 +72,7 @@ impl ExactFootprint {
             grow,
             weight: [1.0, 0.0, 0.0],
             bounds: frame.bounds(),
+            inside: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         })
     }
 
@@ -87,9 +92,43 @@ impl ExactFootprint {
         let g = footprint.map(|f| -3.0 * forward.dot(f) / depth);
         let mean = 1.0 + g[0] * self.frame.centroid().x + g[1] * self.frame.centroid().y;
         if depth > 0.0 && mean > 0.0 && mean.is_finite() {
-            self.weight = [1.0 / mean, g[0] / mean, g[1] / mean];
+            let w = [1.0 / mean, g[0] / mean, g[1] / mean];
+            self.weight = w;
+            let centre = self.frame.centre();
+            let [m_a, m_b, m_aa, m_ab, m_bb, m_aaa, m_aab, m_abb, m_bbb] =
+                self.frame.centred_moments();
+            let along = |x: f64, y: f64| w[1] * x + w[2] * y;
+            self.inside = [
+                w[0] + w[1] * centre.x + w[2] * centre.y,
+                along(m_a, m_b),
+                along(m_aa, m_ab),
+                along(m_ab, m_bb),
+                along(m_aaa, m_aab),
+                along(m_aab, m_abb),
+                along(m_abb, m_bbb),
+            ];
         }
         self
+    }
+
+    /// The weight at the kernel's centroid over the quadrilateral `s + alpha a + beta b` when
+    /// it lies inside the disc and `mean` is the kernel's mean over it: the weight at
+    /// `QuadFrame::kernel_centroid`, a few multiplications a photon.
+    #[inline]
+    pub fn weight_inside(&self, s: DVec2, a: DVec2, b: DVec2, mean: f64) -> f64 {
+        if mean <= 0.0 {
+            return self.inside[0];
+        }
+        let [base, k1, ka, kb, kaa, kab, kbb] = self.inside;
+        let centre = self.frame.centre();
+        let c = s + a * centre.x + b * centre.y;
+        let sum = (1.0 - c.length_squared()) * k1
+            - 2.0 * c.dot(a) * ka
+            - 2.0 * c.dot(b) * kb
+            - a.length_squared() * kaa
+            - 2.0 * a.dot(b) * kab
+            - b.length_squared() * kbb;
+        base + sum / mean
     }
 
     /// The weight at `(alpha, beta)` (taken into the quadrilateral's bounding box, against
@@ -100,5 +139,48 @@ impl ExactFootprint {
     pub fn weight_at(&self, at: DVec2) -> f64 {
         let p = at.clamp(self.bounds[0], self.bounds[1]);
         self.weight[0] + self.weight[1] * p.x + self.weight[2] * p.y
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_weight_inside_is_the_weight_at_the_kernels_centroid() {
+        // A pixel's quadrilateral on a floor seen obliquely, and photons far larger than it.
+        let corners = [
+            DVec3::new(-0.5, 0.0, -0.45),
+            DVec3::new(0.5, 0.0, -0.45),
+            DVec3::new(0.55, 0.0, 0.55),
+            DVec3::new(-0.55, 0.0, 0.55),
+        ]
+        .map(|c| c * 0.02);
+        let f = [DVec3::X * 0.02, DVec3::Z * 0.02];
+        let x = DVec3::new(0.0, 0.0, 0.001);
+        let e = ExactFootprint::new(&corners, x, &f).unwrap().seen_from(
+            DVec3::new(0.0, 2.0, 3.0),
+            DVec3::new(0.0, -2.0, -3.0).normalize(),
+            x,
+            &f,
+        );
+        assert!(e.weight[2].abs() > 1e-3, "{:?}", e.weight);
+        for k in 0..10 {
+            let t = k as f64 * 0.7;
+            let (s, a, b) = (
+                DVec2::new(0.4 * t.cos(), 0.3 * t.sin()),
+                DVec2::new(0.2, 0.03 * t.sin()),
+                DVec2::new(-0.02, 0.25),
+            );
+            let crate::geometry::disc_integral::quad::QuadOverlap::Mean(mean) =
+                e.frame.classify(s, a, b)
+            else {
+                panic!("{k}: not inside");
+            };
+            let expected = e.weight_at(e.frame.kernel_centroid(s, a, b, mean));
+            let got = e.weight_inside(s, a, b, mean);
+            assert!((got - expected).abs() <= 1e-12, "{k}: {got} vs {expected}");
+            assert!((got - 1.0).abs() > 1e-5, "{k}: {got}");
+        }
     }
 }

@@ -171,13 +171,10 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                     Some(QuadOverlap::None) => Overlap::None,
                     // The quadrilateral inside the disc (or a point to it): weighted at the
                     // kernel's centroid over it.
-                    Some(QuadOverlap::Mean(mean)) => match q.exact {
-                        Some(e) if e.weight != [1.0, 0.0, 0.0] => {
-                            let frame = &e.frame;
-                            Overlap::Mean(mean * e.weight_at(frame.kernel_centroid(s, a, b, mean)))
-                        }
-                        _ => Overlap::Mean(mean),
-                    },
+                    Some(QuadOverlap::Mean(mean)) => {
+                        let w = q.exact.map_or(1.0, |e| e.weight_inside(s, a, b, mean));
+                        Overlap::Mean(mean * w)
+                    }
                     // The kernel's mass lies about the photon: the image-area weight there
                     // (exact for a weight linear over the footprint).
                     Some(QuadOverlap::DiscInside(mean)) => {

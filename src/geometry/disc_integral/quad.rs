@@ -199,6 +199,18 @@ impl QuadFrame {
         })
     }
 
+    /// The mean of the vertices' coordinates, about which [`QuadFrame::centred_moments`] are
+    /// taken.
+    pub fn centre(&self) -> DVec2 {
+        self.centre
+    }
+
+    /// Area means about [`QuadFrame::centre`] (`w = (alpha, beta) - centre`) of `w_a`, `w_b`,
+    /// `w_a^2`, `w_a w_b`, `w_b^2`, `w_a^3`, `w_a^2 w_b`, `w_a w_b^2`, `w_b^3`.
+    pub fn centred_moments(&self) -> [f64; 9] {
+        self.centred
+    }
+
     /// Where the weight `(1 - |u|^2)` has its centroid over the quadrilateral `s + alpha a +
     /// beta b`, in `(alpha, beta)`, when the quadrilateral lies inside the disc and `mean` is
     /// that weight's mean over it ([`QuadOverlap::Mean`]): from the area moments up to the
@@ -362,12 +374,16 @@ pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>, centroids: &mut Vec
     let far = [1e6, 1e6 + 1.0, 1e6 + 1.0, 1e6, 0.0, 0.0, 1.0, 1.0];
     for [x0, x1, x2, x3, y0, y1, y2, y3] in batch.chunks(far) {
         let (x, y) = ([x0, x1, x2, x3], [y0, y1, y2, y3]);
-        let (integral, area) = if quad_takes_one_arc(x, y).simd_ge(f64x4::ZERO).all() {
-            general_quad_one_arc(x, y)
+        // The sides once, for the integral and the first moment alike.
+        let (sides, tangents, area) = quad_sides(x, y);
+        let integral = if quad_takes_one_arc(x, y).simd_ge(f64x4::ZERO).all() {
+            one_arc_flux(sides)
         } else {
-            general_quad(x, y)
+            sides
+                .iter()
+                .fold(f64x4::ZERO, |sum, &(h, t0, t1)| sum + side(h, t0, t1))
         };
-        let (mx, my) = quad_first_moment(x, y);
+        let (mx, my) = first_moment(&sides, &tangents);
         let positive = integral.simd_gt(f64x4::ZERO);
         let inv = positive.bitselect(f64x4::ONE / integral, f64x4::ZERO);
         let (cx, cy) = ((mx * inv).to_array(), (my * inv).to_array());
