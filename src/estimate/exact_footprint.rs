@@ -111,6 +111,18 @@ impl ExactFootprint {
         self
     }
 
+    /// The weight as a function of a photon's filter space, where the footprint is
+    /// `s + alpha a + beta b`: `k[0] + k[1] u_x + k[2] u_y` (`a`, `b` independent).
+    #[inline]
+    pub fn weight_in_filter_space(&self, s: DVec2, a: DVec2, b: DVec2) -> [f64; 3] {
+        // (alpha, beta) = [a b]^-1 (u - s).
+        let det = a.perp_dot(b);
+        let [w0, wa, wb] = self.weight;
+        let kx = (wa * b.y - wb * a.y) / det;
+        let ky = (wb * a.x - wa * b.x) / det;
+        [w0 - kx * s.x - ky * s.y, kx, ky]
+    }
+
     /// The weight at the kernel's centroid over the quadrilateral `s + alpha a + beta b` when
     /// it lies inside the disc and `mean` is the kernel's mean over it: the weight at
     /// `QuadFrame::kernel_centroid`, a few multiplications a photon.

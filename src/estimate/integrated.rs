@@ -81,9 +81,8 @@ pub fn parallelogram_means_scalar(batch: &ParallelogramBatch, out: &mut Vec<f64>
     }
 }
 
-/// The point `s + alpha a + beta b = 0` in the footprint's coordinates `(alpha, beta)` (filter
-/// space; `a`, `b` independent): where the photon's centre lies, or with `s - c` for `s`, the
-/// point `c`.
+/// Where the photon's centre lies in the footprint's coordinates `(alpha, beta)`: the solution of
+/// `s + alpha a + beta b = 0` (filter space; `a`, `b` independent).
 #[inline]
 fn photon_at(s: DVec2, a: DVec2, b: DVec2) -> DVec2 {
     let det = a.perp_dot(b);
@@ -98,12 +97,8 @@ struct Scratch {
     batch: ParallelogramBatch,
     means: Vec<f64>,
     general_quads: Vec<u32>,
-    /// The filter space `(s, a, b)` of each of `general_quads`.
-    quad_frames: Vec<[DVec2; 3]>,
     quads: QuadBatch,
     quad_means: Vec<f64>,
-    /// Where each mean's weight lies ([`quad_means`]).
-    centroids: Vec<DVec2>,
 }
 
 thread_local! {
@@ -150,7 +145,6 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             scratch.general.clear();
             scratch.quads.clear();
             scratch.general_quads.clear();
-            scratch.quad_frames.clear();
             let mut total = Vec3::ZERO;
             for &i in &scratch.found {
                 let p = &self.map.photons[i as usize];
@@ -181,12 +175,14 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                         let w = q.exact.map_or(1.0, |e| e.weight_at(photon_at(s, a, b)));
                         Overlap::Mean(mean * w)
                     }
-                    // Weighted where the kernel's mass in the footprint lies (its centroid,
-                    // from the general formula's batch).
+                    // The weight, linear over the footprint, integrated with the kernel by
+                    // the general formula's batch (its integral and first moment).
                     Some(QuadOverlap::General(vertices)) => {
-                        scratch.quads.push(vertices);
+                        let k = q
+                            .exact
+                            .map_or([1.0, 0.0, 0.0], |e| e.weight_in_filter_space(s, a, b));
+                        scratch.quads.push_weighted(vertices, k);
                         scratch.general_quads.push(i);
-                        scratch.quad_frames.push([s, a, b]);
                         continue;
                     }
                     // No exact footprint, or one too thin or folded: the parallelogram.
@@ -207,17 +203,7 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                 }
             }
             parallelogram_means(&mut scratch.batch, &mut scratch.means);
-            quad_means(
-                &mut scratch.quads,
-                &mut scratch.quad_means,
-                &mut scratch.centroids,
-            );
-            if let Some(e) = q.exact {
-                let frames = scratch.centroids.iter().zip(&scratch.quad_frames);
-                for (mean, (&c, &[s, a, b])) in scratch.quad_means.iter_mut().zip(frames) {
-                    *mean *= e.weight_at(photon_at(s - c, a, b));
-                }
-            }
+            quad_means(&mut scratch.quads, &mut scratch.quad_means);
             let means = scratch.means.iter().chain(&scratch.quad_means);
             for (&i, &mean) in scratch
                 .general

@@ -18,7 +18,7 @@
 //! the disc inside (every `h >= 1`), a separating side (some `h <= -1`).
 
 use super::moment::first_moment;
-use super::rows::{Rows, LANES};
+use super::rows::Rows;
 use super::{one_arc_flux, side, Lane, ONE_ARC_MAX_CIRCUMRADIUS, POINT_SIZE};
 use glam::DVec2;
 use std::f64::consts::FRAC_PI_2;
@@ -343,14 +343,23 @@ pub fn quad_mean(v: [DVec2; 4]) -> Option<f64> {
     }
 }
 
-/// Quadrilaterals for the general formula: rows of the four vertices' `x`, then their `y`.
-pub type QuadBatch = Rows<8>;
+/// Quadrilaterals for the general formula: rows of the four vertices' `x`, then their `y`, then
+/// a weight `k0 + kx u_x + ky u_y` over the quadrilateral (`[1, 0, 0]`: none).
+pub type QuadBatch = Rows<11>;
 
-impl Rows<8> {
+impl Rows<11> {
     /// Adds a counter-clockwise convex quadrilateral (as [`QuadOverlap::General`] gives it).
     pub fn push(&mut self, v: [DVec2; 4]) {
+        self.push_weighted(v, [1.0, 0.0, 0.0]);
+    }
+
+    /// Adds a counter-clockwise convex quadrilateral with the weight `k[0] + k[1] u_x + k[2]
+    /// u_y` over it.
+    pub fn push_weighted(&mut self, v: [DVec2; 4], k: [f64; 3]) {
         let [p0, p1, p2, p3] = v;
-        self.push_row([p0.x, p1.x, p2.x, p3.x, p0.y, p1.y, p2.y, p3.y]);
+        self.push_row([
+            p0.x, p1.x, p2.x, p3.x, p0.y, p1.y, p2.y, p3.y, k[0], k[1], k[2],
+        ]);
     }
 }
 
@@ -362,17 +371,27 @@ pub fn quad_first_moment<T: Lane>(x: [T; 4], y: [T; 4]) -> (T, T) {
     first_moment(&sides, &tangents)
 }
 
-/// For each quadrilateral of `batch`, the mean of `(1 - |u|^2)+` over it by the general
-/// formula, four at a time in SIMD lanes (as `estimate::integrated::parallelogram_means`), and
-/// where that weight's mass lies: its centroid over the quadrilateral ∩ the disc (the origin
-/// where the mean is 0).
-pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>, centroids: &mut Vec<DVec2>) {
+/// For each quadrilateral of `batch`, the mean of `(1 - |u|^2)+` times its weight over it by
+/// the general formula (a linear weight needs the kernel's integral and first moment),
+/// four at a time in SIMD lanes (as `estimate::integrated::parallelogram_means`).
+pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>) {
     out.clear();
-    centroids.clear();
     let len = batch.len();
     // Padding: unit squares far from the disc.
-    let far = [1e6, 1e6 + 1.0, 1e6 + 1.0, 1e6, 0.0, 0.0, 1.0, 1.0];
-    for [x0, x1, x2, x3, y0, y1, y2, y3] in batch.chunks(far) {
+    let far = [
+        1e6,
+        1e6 + 1.0,
+        1e6 + 1.0,
+        1e6,
+        0.0,
+        0.0,
+        1.0,
+        1.0,
+        1.0,
+        0.0,
+        0.0,
+    ];
+    for [x0, x1, x2, x3, y0, y1, y2, y3, k0, kx, ky] in batch.chunks(far) {
         let (x, y) = ([x0, x1, x2, x3], [y0, y1, y2, y3]);
         // The sides once, for the integral and the first moment alike.
         let (sides, tangents, area) = quad_sides(x, y);
@@ -384,14 +403,14 @@ pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>, centroids: &mut Vec
                 .fold(f64x4::ZERO, |sum, &(h, t0, t1)| sum + side(h, t0, t1))
         };
         let (mx, my) = first_moment(&sides, &tangents);
-        let positive = integral.simd_gt(f64x4::ZERO);
-        let inv = positive.bitselect(f64x4::ONE / integral, f64x4::ZERO);
-        let (cx, cy) = ((mx * inv).to_array(), (my * inv).to_array());
-        out.extend_from_slice(&(integral / area).max(f64x4::ZERO).to_array());
-        centroids.extend((0..LANES).map(|k| DVec2::new(cx[k], cy[k])));
+        let weighted = k0 * integral + kx * mx + ky * my;
+        // Where the integral is 0 (tangency, rounding) so is the weighted one.
+        let weighted = integral
+            .simd_gt(f64x4::ZERO)
+            .bitselect(weighted, f64x4::ZERO);
+        out.extend_from_slice(&(weighted / area).max(f64x4::ZERO).to_array());
     }
     out.truncate(len);
-    centroids.truncate(len);
 }
 
 #[cfg(test)]
@@ -595,8 +614,8 @@ mod tests {
             let (integral, area) = general_quad_either(v);
             expected.push((integral / area).max(0.0));
         }
-        let (mut simd, mut centroids) = (Vec::new(), Vec::new());
-        quad_means(&mut batch, &mut simd, &mut centroids);
+        let mut simd = Vec::new();
+        quad_means(&mut batch, &mut simd);
         assert_eq!(simd.len(), 23);
         for (a, b) in simd.iter().zip(&expected) {
             assert!((a - b).abs() <= 1e-14, "{a} {b}");
