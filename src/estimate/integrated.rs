@@ -132,9 +132,10 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
         };
         // The exact footprint (its corners as offsets from the query point) where the query
         // has it, and the parallelogram, grown to hold it, that the map is asked about.
-        let quad = q.exact.map(|e| (e.frame, q.footprint.map(|f| f * e.grow)));
-        let reach = quad.as_ref().map_or(&q.footprint, |(_, f)| f);
-        counts.exact_footprints += u64::from(quad.is_some());
+        let exact = q.exact.as_ref();
+        let grown = exact.map(|e| q.footprint.map(|f| f * e.grow));
+        let reach = grown.as_ref().unwrap_or(&q.footprint);
+        counts.exact_footprints += u64::from(exact.is_some());
         SCRATCH.with(|scratch| {
             let scratch = &mut *scratch.borrow_mut();
             self.map.covering(q.position, reach, &mut scratch.found);
@@ -161,32 +162,28 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                 let filter = |w: DVec3| DVec2::new(m0.dot(w), m1.dot(w));
                 let s = filter(q.position - p.position.as_dvec3());
                 let (a, b) = (filter(f[0]), filter(f[1]));
-                let overlap = match quad.as_ref().map(|(frame, _)| frame.classify(s, a, b)) {
-                    Some(QuadOverlap::None) => Overlap::None,
+                let overlap = match exact.map(|e| (e, e.frame.classify(s, a, b))) {
+                    Some((_, QuadOverlap::None)) => Overlap::None,
                     // The quadrilateral inside the disc (or a point to it): weighted at the
                     // kernel's centroid over it.
-                    Some(QuadOverlap::Mean(mean)) => {
-                        let w = q.exact.map_or(1.0, |e| e.weight_inside(s, a, b, mean));
-                        Overlap::Mean(mean * w)
+                    Some((e, QuadOverlap::Mean(mean))) => {
+                        Overlap::Mean(mean * e.weight_inside(s, a, b, mean))
                     }
                     // The kernel's mass lies about the photon: the image-area weight there
                     // (exact for a weight linear over the footprint).
-                    Some(QuadOverlap::DiscInside(mean)) => {
-                        let w = q.exact.map_or(1.0, |e| e.weight_at(photon_at(s, a, b)));
-                        Overlap::Mean(mean * w)
+                    Some((e, QuadOverlap::DiscInside(mean))) => {
+                        Overlap::Mean(mean * e.weight_at(photon_at(s, a, b)))
                     }
                     // The weight, linear over the footprint, integrated with the kernel by
                     // the general formula's batch (its integral and first moment).
-                    Some(QuadOverlap::General(vertices)) => {
-                        let k = q
-                            .exact
-                            .map_or([1.0, 0.0, 0.0], |e| e.weight_in_filter_space(s, a, b));
+                    Some((e, QuadOverlap::General(vertices))) => {
+                        let k = e.weight_in_filter_space(s, a, b);
                         scratch.quads.push_weighted(vertices, k);
                         scratch.general_quads.push(i);
                         continue;
                     }
                     // No exact footprint, or one too thin or folded: the parallelogram.
-                    Some(QuadOverlap::NotConvex) | None => classify(s, a, b),
+                    Some((_, QuadOverlap::NotConvex)) | None => classify(s, a, b),
                 };
                 match overlap {
                     Overlap::None => {}
