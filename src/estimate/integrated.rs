@@ -21,6 +21,13 @@
 //! ([`crate::geometry::disc_integral::quad`]): neighbouring pixels' quadrilaterals tile the
 //! plane, so light concentrated on a pixel boundary is counted once.
 //!
+//! That exact footprint also carries the image area each of its parts stands for
+//! ([`super::ExactFootprint::seen_from`]: a pixel is a box on the image, and a perspective view
+//! maps it onto the surface with a Jacobian varying by a few percent across it), linear over
+//! the footprint: each photon's mean is taken with that weight, read at the kernel's centroid
+//! in the footprint or, across the circle, integrated with the kernel in the general formula's
+//! batch ([`crate::geometry::disc_integral::moment`]).
+//!
 //! A vanishing view footprint gives the kernel at the centre: the photon-differential estimate
 //! (`pd`). The gather asks the map for every photon whose footprint may overlap `V`
 //! ([`PhotonMap::covering`]), as the multi-sampled estimate does.
