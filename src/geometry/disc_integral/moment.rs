@@ -23,8 +23,8 @@
 use super::Lane;
 
 /// The first moment (x, y) of `(1 - |u|^2)` over `P ∩ D` for the convex counter-clockwise
-/// polygon whose sides are `(h, t0, t1)` as the integral's sides (`super::side`) take them, with unit tangents
-/// `(tau_x, tau_y)` (the outward normal is `(tau_y, -tau_x)`).
+/// polygon whose sides are `(h, t0, t1)` as the integral's sides (`super::side`) take them,
+/// with unit tangents `(tau_x, tau_y)` (the outward normal is `(tau_y, -tau_x)`).
 #[inline(always)]
 pub fn first_moment<T: Lane, const N: usize>(
     sides: &[(T, T, T); N],
