@@ -31,8 +31,6 @@ pub struct ExactFootprint {
     /// `x + alpha f[0] + beta f[1]`, scaled so that its mean over the quadrilateral is 1
     /// (`[1, 0, 0]`, uniform, unless [`ExactFootprint::seen_from`] set it).
     pub weight: [f64; 3],
-    /// The quadrilateral's bounding box in `(alpha, beta)`.
-    pub bounds: [DVec2; 2],
     /// [`ExactFootprint::weight_inside`] prepared: the weight at the frame's centre, and the
     /// weight's gradient against each of the frame's centred moments (`QuadFrame::
     /// kernel_centroid`'s sums, combined over `alpha` and `beta` once per gather).
@@ -71,7 +69,6 @@ impl ExactFootprint {
             frame,
             grow,
             weight: [1.0, 0.0, 0.0],
-            bounds: frame.bounds(),
             inside: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
         })
     }
@@ -112,14 +109,15 @@ impl ExactFootprint {
     }
 
     /// The weight as a function of a photon's filter space, where the footprint is
-    /// `s + alpha a + beta b`: `k[0] + k[1] u_x + k[2] u_y` (`a`, `b` independent).
+    /// `s + alpha a + beta b`: `k[0] + k[1] u_x + k[2] u_y` (`a`, `b` independent). `k[0]` is
+    /// the weight at the photon's centre (`u = 0`).
     #[inline]
     pub fn weight_in_filter_space(&self, s: DVec2, a: DVec2, b: DVec2) -> [f64; 3] {
         // (alpha, beta) = [a b]^-1 (u - s).
-        let det = a.perp_dot(b);
+        let inv_det = 1.0 / a.perp_dot(b);
         let [w0, wa, wb] = self.weight;
-        let kx = (wa * b.y - wb * a.y) / det;
-        let ky = (wb * a.x - wa * b.x) / det;
+        let kx = (wa * b.y - wb * a.y) * inv_det;
+        let ky = (wb * a.x - wa * b.x) * inv_det;
         [w0 - kx * s.x - ky * s.y, kx, ky]
     }
 
@@ -143,14 +141,12 @@ impl ExactFootprint {
         base + sum / mean
     }
 
-    /// The weight at `(alpha, beta)` (taken into the quadrilateral's bounding box, against
-    /// rounding): what a photon whose kernel's mass in the footprint has its centroid there
-    /// contributes, relative to one spread evenly over it (exact for a weight linear over the
-    /// footprint).
+    /// The weight at `(alpha, beta)`: what a photon whose kernel's mass in the footprint has
+    /// its centroid there contributes, relative to one spread evenly over it (exact for a
+    /// weight linear over the footprint).
     #[inline]
     pub fn weight_at(&self, at: DVec2) -> f64 {
-        let p = at.clamp(self.bounds[0], self.bounds[1]);
-        self.weight[0] + self.weight[1] * p.x + self.weight[2] * p.y
+        self.weight[0] + self.weight[1] * at.x + self.weight[2] * at.y
     }
 }
 

@@ -88,14 +88,6 @@ pub fn parallelogram_means_scalar(batch: &ParallelogramBatch, out: &mut Vec<f64>
     }
 }
 
-/// Where the photon's centre lies in the footprint's coordinates `(alpha, beta)`: the solution of
-/// `s + alpha a + beta b = 0` (filter space; `a`, `b` independent).
-#[inline]
-fn photon_at(s: DVec2, a: DVec2, b: DVec2) -> DVec2 {
-    let det = a.perp_dot(b);
-    DVec2::new(b.perp_dot(s), s.perp_dot(a)) / det
-}
-
 /// Scratch space reused across gathers on one thread.
 #[derive(Default)]
 struct Scratch {
@@ -176,10 +168,10 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
                     Some((e, QuadOverlap::Mean(mean))) => {
                         Overlap::Mean(mean * e.weight_inside(s, a, b, mean))
                     }
-                    // The kernel's mass lies about the photon: the image-area weight there
-                    // (exact for a weight linear over the footprint).
+                    // The kernel's mass lies about the photon: the image-area weight at its
+                    // centre (exact for a weight linear over the footprint).
                     Some((e, QuadOverlap::DiscInside(mean))) => {
-                        Overlap::Mean(mean * e.weight_at(photon_at(s, a, b)))
+                        Overlap::Mean(mean * e.weight_in_filter_space(s, a, b)[0])
                     }
                     // The weight, linear over the footprint, integrated with the kernel by
                     // the general formula's batch (its integral and first moment).

@@ -42,9 +42,9 @@ pub struct Regions {
     pub shadow: Vec<usize>,
 }
 
-/// Rays per side (odd: the pixel's centre is one of them) of the lattice that decides whether a pixel is seen on diffuse surfaces over
-/// its whole area ([`Regions::diffuse`]): a specular sliver narrower than about 1/8 of a pixel
-/// can slip between its rays.
+/// Rays per side (odd: the pixel's centre is one of them) of the lattice that decides whether a
+/// pixel is seen on diffuse surfaces over its whole area ([`Regions::diffuse`]): a specular
+/// sliver narrower than about 1/8 of a pixel can slip between its rays.
 pub const COVER_LATTICE: usize = 9;
 
 /// Pixel `(x, y)`'s centre ray direction, its first hit and the albedo there, when every ray

@@ -236,19 +236,6 @@ impl QuadFrame {
         DVec2::new(self.moments[0], self.moments[1])
     }
 
-    /// The least and greatest `(alpha, beta)` of the vertices.
-    pub fn bounds(&self) -> [DVec2; 2] {
-        let lo = DVec2::new(
-            self.alpha.into_iter().fold(f64::INFINITY, f64::min),
-            self.beta.into_iter().fold(f64::INFINITY, f64::min),
-        );
-        let hi = DVec2::new(
-            self.alpha.into_iter().fold(f64::NEG_INFINITY, f64::max),
-            self.beta.into_iter().fold(f64::NEG_INFINITY, f64::max),
-        );
-        [lo, hi]
-    }
-
     /// Settles the quadrilateral `s + alpha a + beta b` against the unit disc where a closed
     /// form does (as [`super::classify`] does for parallelograms) and prepares the rest.
     /// Non-finite input gives [`QuadOverlap::None`].
