@@ -34,7 +34,7 @@ pub enum QuadOverlap {
     Mean(f64),
     /// The disc lies inside the quadrilateral: the mean is `(pi / 2) / area`, and the kernel's
     /// mass sits about the disc's centre (what a weight over the quadrilateral needs to know,
-    /// `estimate::ExactFootprint::weight_at`).
+    /// `estimate::ExactFootprint::weight_in_filter_space`).
     DiscInside(f64),
     /// Needs the general formula ([`general_quad`]) on these vertices (counter-clockwise).
     General([DVec2; 4]),
