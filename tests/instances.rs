@@ -2,6 +2,9 @@
 //! same mesh placed directly would (hits, photons, gathers), memory stays flat in the number
 //! of instances, and bad instances are one-line errors.
 
+mod common;
+use common::render_file;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -39,30 +42,11 @@ fn write_ball(dir: &Path) {
     .unwrap();
 }
 
+/// Renders `scene`, writing NAME.exr and NAME.json beside it; returns the statistics JSON and
+/// the pixels.
 fn render(scene: &Path, name: &str) -> (serde_json::Value, Vec<glam::DVec3>) {
-    let dir = scene.parent().unwrap();
-    let exr = dir.join(format!("{name}.exr"));
-    let json = dir.join(format!("{name}.json"));
-    let out = Command::new(EXE)
-        .arg("render")
-        .arg(scene)
-        .args(["-q", "--photons", "5000", "--caustic-photons", "5000", "-o"])
-        .arg(&exr)
-        .arg("--stats-json")
-        .arg(&json)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stats = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let pixels = photondiff::render::part::read_part(&exr)
-        .unwrap()
-        .film
-        .pixels;
-    (stats, pixels)
+    let args = ["-q", "--photons", "5000", "--caustic-photons", "5000"];
+    render_file(scene, &scene.parent().unwrap().join(name), &args)
 }
 
 const MESHES: &str = "[meshes.ball]\nfile = \"ball.ply\"\n";

@@ -2,14 +2,13 @@
 //! statistics account for meshes, Embree's BVH and the process's peak, and the BVH settings
 //! change memory but not what the rays hit.
 
+mod common;
+use common::render_file;
+
 use photondiff::embree::Device;
-use photondiff::render::part::read_part;
 use photondiff::scene::file::load_scene;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::Arc;
-
-const EXE: &str = env!("CARGO_BIN_EXE_photondiff");
 
 /// The canonical scene at 96 x 72, plus a mesh file (a PLY written by photondiff) so that a
 /// loaded mesh is part of it.
@@ -52,28 +51,12 @@ fn the_embree_scene_shares_the_meshes_instead_of_copying_them() {
     assert!(scene.meshes.iter().all(|m| Arc::strong_count(&m.mesh) == 1));
 }
 
-/// Renders `scene` with `extra` options; returns the statistics JSON and the pixels.
+/// Renders `scene` with `extra` options, writing NAME.exr and NAME.json beside it; returns the
+/// statistics JSON and the pixels.
 fn render(scene: &Path, name: &str, extra: &[&str]) -> (serde_json::Value, Vec<glam::DVec3>) {
-    let dir = scene.parent().unwrap();
-    let exr = dir.join(format!("{name}.exr"));
-    let json = dir.join(format!("{name}.json"));
-    let out = Command::new(EXE)
-        .arg("render")
-        .arg(scene)
-        .args(["-q", "--photons", "5000", "--caustic-photons", "5000", "-o"])
-        .arg(&exr)
-        .arg("--stats-json")
-        .arg(&json)
-        .args(extra)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let stats = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    (stats, read_part(&exr).unwrap().film.pixels)
+    let mut args = vec!["-q", "--photons", "5000", "--caustic-photons", "5000"];
+    args.extend_from_slice(extra);
+    render_file(scene, &scene.parent().unwrap().join(name), &args)
 }
 
 #[test]

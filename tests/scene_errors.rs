@@ -1,6 +1,9 @@
 //! Every kind of bad scene input gives a clear message naming the file and the field or line,
 //! and the command line exits non-zero without panicking.
 
+mod common;
+use common::render_file;
+
 use photondiff::scene::file::load_scene;
 use std::path::Path;
 use std::process::Command;
@@ -238,30 +241,12 @@ fn the_command_line_fails_cleanly_and_renders_good_scenes() {
     )
     .unwrap();
     let exr = dir.path().join("o/img.exr");
-    let stats = dir.path().join("o/stats.json");
-    let out = Command::new(exe)
-        .args([
-            "render",
-            "--quiet",
-            "--view-grid",
-            "2",
-            "--threads",
-            "1",
-            "-o",
-        ])
-        .arg(&exr)
-        .arg("--stats-json")
-        .arg(&stats)
-        .arg(&good)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let (json, _) = render_file(
+        &good,
+        &exr.with_extension(""),
+        &["--quiet", "--view-grid", "2", "--threads", "1"],
     );
     assert!(exr.exists() && exr.with_extension("png").exists());
-    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
     // The default estimate (integrated) renders two progressive passes.
     assert_eq!(json["progressive"]["passes"], 2);
     assert_eq!(json["rays"]["camera"], 2 * 32 * 24 * 4);

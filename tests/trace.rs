@@ -1,6 +1,9 @@
 //! `render --trace FILE`: Chrome trace-event JSON with spans per stage, pass and tile and
 //! counter tracks, in the shape Perfetto reads.
 
+mod common;
+use common::render_file;
+
 use serde_json::Value;
 use std::process::Command;
 
@@ -20,10 +23,11 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
     let scene = dir.path().join("scene.toml");
     std::fs::write(&scene, text).unwrap();
     let trace = dir.path().join("deep/trace.json");
-    let out = Command::new(EXE)
-        .arg("render")
-        .arg(&scene)
-        .args([
+    let trace_arg = trace.to_str().unwrap();
+    let (stats, _) = render_file(
+        &scene,
+        &dir.path().join("a"),
+        &[
             "-q",
             "--passes",
             "3",
@@ -31,19 +35,9 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
             "2000",
             "--caustic-photons",
             "2000",
-        ])
-        .arg("-o")
-        .arg(dir.path().join("a.exr"))
-        .arg("--trace")
-        .arg(&trace)
-        .arg("--stats-json")
-        .arg(dir.path().join("stats.json"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+            "--trace",
+            trace_arg,
+        ],
     );
     let json: Value = serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
     let events = json["traceEvents"].as_array().unwrap();
@@ -102,9 +96,6 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
     }
     // One camera ray a pixel and, this being a long run (3 passes), 15 more per edge pixel;
     // the corner rays that found the edge pixels are the run's, once, not a pass's.
-    let stats: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
-            .unwrap();
     let edges = stats["edge_pixels"].as_u64().unwrap();
     assert!(edges > 0 && edges.is_multiple_of(3), "{edges}");
     assert_eq!(

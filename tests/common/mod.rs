@@ -6,7 +6,9 @@
 use glam::DVec3;
 use photondiff::photons::footprint::{footprint, FootprintLimits, Guards};
 use photondiff::photons::map::Photon;
+use photondiff::render::part::read_part;
 use std::f64::consts::PI;
+use std::path::Path;
 
 /// Gauss-Legendre nodes and weights on [-1, 1], 5 points.
 const GL5: [(f64, f64); 5] = [
@@ -51,19 +53,18 @@ pub fn floor_photon(position: DVec3, a: DVec3, b: DVec3, power: f64) -> Photon {
     Photon::new(position, DVec3::Y, -DVec3::Y, DVec3::splat(power), &f)
 }
 
-/// Renders `scene` (TOML text) with `args` through the command line; the statistics JSON.
-pub fn render_stats(scene: &str, args: &[&str]) -> serde_json::Value {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("scene.toml");
-    std::fs::write(&path, scene).unwrap();
-    let stats = dir.path().join("stats.json");
+/// Renders the scene file `scene` through the command line with `args`, writing `STEM.exr` and
+/// its statistics `STEM.json`, and asserts that it succeeded (showing its stderr otherwise):
+/// the statistics JSON and the image's pixels.
+pub fn render_file(scene: &Path, stem: &Path, args: &[&str]) -> (serde_json::Value, Vec<DVec3>) {
+    let (exr, json) = (stem.with_extension("exr"), stem.with_extension("json"));
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
         .arg("render")
-        .arg(&path)
+        .arg(scene)
         .arg("-o")
-        .arg(dir.path().join("image.exr"))
+        .arg(&exr)
         .arg("--stats-json")
-        .arg(&stats)
+        .arg(&json)
         .args(args)
         .output()
         .unwrap();
@@ -72,5 +73,14 @@ pub fn render_stats(scene: &str, args: &[&str]) -> serde_json::Value {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap()
+    let stats = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    (stats, read_part(&exr).unwrap().film.pixels)
+}
+
+/// Renders `scene` (TOML text) with `args` through the command line; the statistics JSON.
+pub fn render_stats(scene: &str, args: &[&str]) -> serde_json::Value {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, scene).unwrap();
+    render_file(&path, &dir.path().join("image"), args).0
 }
