@@ -286,3 +286,52 @@ fn footprint_shadow_rays_sample_a_shadow_edge_within_the_pixel() {
     );
     assert!(one >= 0.2, "one shadow ray: worst error only {one}");
 }
+
+/// Near a light that grazes the floor (the grazing-light stress scene: 2 degrees above it) the
+/// falloff changes by 10-15% from one pixel to the next. Every pass's footprint shadow rays
+/// sit at that pass's jitter within their sub-cells, mirrored in the far half, so each pass
+/// (not only the centred pass 0) averages the pixel to second order: a plain shifted 2 x 2
+/// grid put pass 1 about 10% over the pixel's mean there.
+#[test]
+fn every_passs_footprint_shadow_rays_average_a_steep_falloff_to_second_order() {
+    use photondiff::render::passes::jitter;
+    let scene = load_scene(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/stress/grazing-light.toml"
+    )))
+    .unwrap();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let camera = &scene.camera;
+    let light = DVec3::new(-5.99634, 0.20940, 0.0);
+    // Pixels at the image's left edge, where it sees the floor just beside the light.
+    let pixels: Vec<(u32, u32, f64)> = [(0, 46), (0, 47), (1, 47), (0, 48)]
+        .iter()
+        .map(|&(px, py)| {
+            let expected = pixel_average(camera, px, py, 64, |p| {
+                floor_radiance(p, light, 600.0, 0.75)
+            });
+            (px, py, expected)
+        })
+        .collect();
+    // The falloff is steep there: neighbouring pixels differ by more than 10%.
+    let (left, right) = (pixels[1].2, pixels[2].2);
+    assert!(left / right > 1.1, "{left} {right}");
+    let mut worst = 0.0f64;
+    for pass in 0..8 {
+        let film = render(
+            &scene,
+            &embree,
+            &[],
+            &RenderOptions::default()
+                .with_footprint_strata(2)
+                .with_jitter(jitter(pass)),
+            &mut Stats::default(),
+        )
+        .unwrap();
+        for &(px, py, expected) in &pixels {
+            worst = worst.max((film.pixel(px, py).x / expected - 1.0).abs());
+        }
+    }
+    assert!(worst <= 0.01, "worst pass's error {worst}");
+}

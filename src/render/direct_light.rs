@@ -7,8 +7,17 @@
 //! only as fast as the camera jitter of the passes. With `footprint_strata = N > 1` a hit seen
 //! directly by the camera sends `N x N` shadow rays instead, from points spread over the
 //! camera ray's footprint on the surface (its position differentials: the cell of the view
-//! grid around the cell's centre, each point at the pass's jitter within its sub-cell, so
-//! that the passes fill the sub-cells as they fill the cell). The points lie in the hit's
+//! grid around the cell's centre, split into `N x N` sub-cells). The passes fill the sub-cells
+//! as they fill the cell: each point sits at the pass's jitter within its sub-cell, mirrored in
+//! the far half of each axis (sub-cell `i` of `N` takes `jx` for `2i + 1 < N`, `1 - jx` for
+//! `2i + 1 > N`, and `jx` for the middle one of odd `N`), so that every pass's points are
+//! symmetric about the cell's centre. A shifted grid's average is off by the shift times the
+//! light's gradient, a mirrored one only to second order: near a grazing light, where the
+//! light changes by 15% from one pixel to the next, pass 1's jitter put a plain 2 x 2 grid
+//! 10% over the pixel's mean, and the running mean of few passes stayed several percent over
+//! it (the centred pass 0 was within 0.1%). Over passes each point still covers its sub-cell
+//! uniformly (`1 - jx` is as uniform as `jx`), so the passes' mean converges to the box
+//! filter as before. The points lie in the hit's
 //! tangent plane: exact on flat surfaces, and off a curved one by the footprint's size squared
 //! over the curvature radius. Hits seen through mirrors and glass keep one ray: their
 //! footprints are where the first-order differential is least trustworthy (a caustic's focus,
@@ -149,19 +158,18 @@ impl DirectLight<'_> {
         let [dp0, dp1] = v.ray.dp;
         if n == 1 || v.depth > 0 || !(dp0.is_finite() && dp1.is_finite()) {
             return FootprintGrid {
-                corner: v.hit.position,
-                step: [DVec3::ZERO; 2],
+                centre: v.hit.position,
+                dp: [DVec3::ZERO; 2],
+                jitter: [0.5, 0.5],
                 n: 1,
             };
         }
+        // The cell's centre is the hit moved back by the jitter.
         let [jx, jy] = self.jitter;
-        let scale = 1.0 / n as f64;
-        // The cell's centre is the hit moved back by the jitter; point (i, j) is at
-        // `centre + dp0 ((i + jx) / n - 1/2) + dp1 ((j + jy) / n - 1/2)`.
-        let centre = v.hit.position - dp0 * (jx - 0.5) - dp1 * (jy - 0.5);
         FootprintGrid {
-            corner: centre + dp0 * (jx * scale - 0.5) + dp1 * (jy * scale - 0.5),
-            step: [dp0 * scale, dp1 * scale],
+            centre: v.hit.position - dp0 * (jx - 0.5) - dp1 * (jy - 0.5),
+            dp: [dp0, dp1],
+            jitter: self.jitter,
             n,
         }
     }
@@ -193,12 +201,15 @@ impl DirectAt for DirectLight<'_> {
 /// The points a vertex's shadow rays to point and spot lights start from: the hit alone
 /// (`n = 1`), or for a hit seen directly an `n x n` grid over its footprint, the view-grid
 /// cell `c +- dp0/2 +- dp1/2` around the cell's centre `c` split into `n x n` sub-cells, each
-/// point at the pass's jitter within its sub-cell (for `n = 1` that is the hit itself).
+/// point at the pass's jitter within its sub-cell, mirrored in the far half of each axis (see
+/// the module documentation).
 struct FootprintGrid {
-    /// Point `(0, 0)`.
-    corner: DVec3,
-    /// From one point to the next along each axis.
-    step: [DVec3; 2],
+    /// The cell's centre.
+    centre: DVec3,
+    /// The cell's edges (the camera ray's position differentials).
+    dp: [DVec3; 2],
+    /// The pass's jitter within a sub-cell.
+    jitter: [f64; 2],
     /// Points along each axis.
     n: u32,
 }
@@ -206,7 +217,52 @@ struct FootprintGrid {
 impl FootprintGrid {
     /// Point `k` (row-major).
     fn point(&self, k: u32) -> DVec3 {
-        let (i, j) = ((k % self.n) as f64, (k / self.n) as f64);
-        self.corner + self.step[0] * i + self.step[1] * j
+        let at = |i: u32, jitter: f64| mirrored_stratum(i, self.n, jitter) - 0.5;
+        self.centre
+            + self.dp[0] * at(k % self.n, self.jitter[0])
+            + self.dp[1] * at(k / self.n, self.jitter[1])
+    }
+}
+
+/// Where in `[0, 1]` the point of stratum `i` of `n` lies for the jitter `jitter` within its
+/// stratum, mirrored in the far half: `(i + jitter) / n` for `2i + 1 <= n`, `(i + 1 - jitter)
+/// / n` beyond, so that the `n` points are symmetric about 1/2 (for odd `n` all but the middle
+/// one, which keeps `jitter`).
+fn mirrored_stratum(i: u32, n: u32, jitter: f64) -> f64 {
+    let offset = if 2 * i + 1 > n { 1.0 - jitter } else { jitter };
+    (i as f64 + offset) / n as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::mirrored_stratum;
+
+    #[test]
+    fn mirrored_strata_are_symmetric_and_each_covers_its_stratum() {
+        for n in 1..=6u32 {
+            for jitter in [0.0, 0.13, 0.5, 0.77, 1.0] {
+                let points: Vec<f64> = (0..n).map(|i| mirrored_stratum(i, n, jitter)).collect();
+                for (i, &u) in points.iter().enumerate() {
+                    // Inside its own stratum.
+                    assert!(u >= i as f64 / n as f64 && u <= (i + 1) as f64 / n as f64);
+                }
+                // Symmetric about 1/2 (the middle point of odd n at its own jitter).
+                let mean = points.iter().sum::<f64>() / n as f64;
+                let middle = if n % 2 == 1 {
+                    (jitter - 0.5) / n as f64 / n as f64
+                } else {
+                    0.0
+                };
+                assert!((mean - 0.5 - middle).abs() < 1e-15, "n {n} jitter {jitter}");
+                for i in 0..(n / 2) as usize {
+                    let j = n as usize - 1 - i;
+                    assert!((points[i] + points[j] - 1.0).abs() < 1e-15);
+                }
+            }
+        }
+        // Over uniform jitters a stratum's point is uniform in it: the far half's offset
+        // `1 - jitter` runs over the stratum as `jitter` does.
+        assert_eq!(mirrored_stratum(1, 2, 0.25), 0.875);
+        assert_eq!(mirrored_stratum(0, 2, 0.25), 0.125);
     }
 }
