@@ -17,6 +17,7 @@ use crate::photons::cover::OFF_PLANE_TOLERANCE;
 use crate::photons::map::Photon;
 use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
+use wide::f32x4;
 
 /// The box of every offset `v` from photon `p` at which its kernel may be non-zero: its ellipse
 /// `|M v| < 1` thickened by [`OFF_PLANE_TOLERANCE`] along its normal (a slanted elliptic
@@ -95,9 +96,60 @@ struct Node {
     count: u32,
 }
 
+/// Four children of a node, their boxes side by side (a structure of arrays) so that a query
+/// tests all four in one SIMD comparison. `entry[k]` is child `k`: a leaf, `first << 3 |
+/// count` (`count` in `1..=LEAF_SIZE`), an inner node, `index << 3`, or none, [`NO_CHILD`]
+/// (with an empty box). Children are in the binary tree's left-to-right order, so a
+/// depth-first walk meets the leaves in leaf order.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct WideNode {
+    min: [[f32; 4]; 3],
+    max: [[f32; 4]; 3],
+    entry: [u64; 4],
+}
+
+/// [`WideNode::entry`] of a missing child.
+const NO_CHILD: u64 = u64::MAX;
+
+// A leaf's count fits the entry's low three bits.
+const _: () = assert!(LEAF_SIZE < 8);
+
+impl WideNode {
+    const EMPTY: WideNode = WideNode {
+        min: [[f32::INFINITY; 4]; 3],
+        max: [[f32::NEG_INFINITY; 4]; 3],
+        entry: [NO_CHILD; 4],
+    };
+
+    fn set_bounds(&mut self, k: usize, b: &Aabb) {
+        for axis in 0..3 {
+            self.min[axis][k] = b.min[axis];
+            self.max[axis][k] = b.max[axis];
+        }
+    }
+
+    /// Bit `k` set where child `k`'s box shares a point with `q` (`q`: the query's min and max
+    /// per axis, in every lane).
+    #[inline]
+    fn overlapping_children(&self, q: &[[f32x4; 3]; 2]) -> u32 {
+        let [lo, hi] = q;
+        let mut hit = f32x4::splat(f32::from_bits(u32::MAX));
+        for (axis, (lo, hi)) in lo.iter().zip(hi).enumerate() {
+            hit &= f32x4::from(self.min[axis]).simd_le(*hi);
+            hit &= lo.simd_le(f32x4::from(self.max[axis]));
+        }
+        hit.to_bitmask()
+    }
+}
+
 /// A BVH over boxes, each tagged with the `u32` it was given at (its index in the input).
+///
+/// Built binary (a linear BVH), then collapsed to four children a node: a query descends half
+/// as many levels and tests a node's four boxes at once. Same leaves, visited in the same
+/// order.
 pub struct FootprintBvh {
-    nodes: Vec<Node>,
+    nodes: Vec<WideNode>,
     /// The items' boxes in leaf order.
     boxes: Vec<Aabb>,
     /// The items' input indices in leaf order.
@@ -150,43 +202,23 @@ impl FootprintBvh {
         let codes: Vec<u64> = keyed.iter().map(|k| k.0).collect();
         let ids: Vec<u32> = keyed.iter().map(|k| k.1).collect();
         let boxes: Vec<Aabb> = ids.iter().map(|&i| boxes[i as usize]).collect();
-        let mut bvh = FootprintBvh {
-            nodes: Vec::with_capacity(2 * ids.len() / LEAF_SIZE + 1),
-            boxes,
-            ids,
-        };
-        if !bvh.ids.is_empty() {
-            bvh.build(&codes, 0, codes.len());
+        let mut binary = Vec::with_capacity(2 * ids.len() / LEAF_SIZE + 1);
+        if !ids.is_empty() {
+            build(&boxes, &codes, 0, codes.len(), &mut binary);
         }
-        bvh
-    }
-
-    /// Builds the subtree over items `first..end` (sorted by code); returns its bounds.
-    fn build(&mut self, codes: &[u64], first: usize, end: usize) -> Aabb {
-        let me = self.nodes.len();
-        self.nodes.push(Node {
-            bounds: Aabb::EMPTY,
-            index: first as u32,
-            count: (end - first) as u32,
-        });
-        if end - first <= LEAF_SIZE {
-            let bounds = self.boxes[first..end]
-                .iter()
-                .fold(Aabb::EMPTY, |a, b| a.union(b));
-            self.nodes[me].bounds = bounds;
-            return bounds;
+        let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
+        if let Some(root) = binary.first() {
+            if root.count > 0 {
+                // A single leaf: a root holding it alone.
+                let mut node = WideNode::EMPTY;
+                node.set_bounds(0, &root.bounds);
+                node.entry[0] = leaf_entry(root);
+                nodes.push(node);
+            } else {
+                collapse(&binary, 0, &mut nodes);
+            }
         }
-        let split = split_point(codes, first, end);
-        let left = self.build(codes, first, split);
-        let right_index = self.nodes.len() as u32;
-        let right = self.build(codes, split, end);
-        let bounds = left.union(&right);
-        self.nodes[me] = Node {
-            bounds,
-            index: right_index,
-            count: 0,
-        };
-        bounds
+        FootprintBvh { nodes, boxes, ids }
     }
 
     /// The items' indices in leaf order: `order()[k]` is the item in the `k`-th leaf slot.
@@ -236,26 +268,98 @@ impl FootprintBvh {
         if self.nodes.is_empty() {
             return;
         }
-        // Depth is at most 63 bit levels plus log2(n) halvings of equal codes.
-        let mut stack = [0u32; 128];
+        let q = [query.min, query.max].map(|v| v.to_array().map(f32x4::splat));
+        // Depth is at most 63 bit levels plus log2(n) halvings of equal codes, halved by the
+        // collapse; a node leaves at most three children on the stack.
+        let mut stack = [0u64; 256];
         let mut top = 1;
         while top > 0 {
             top -= 1;
-            let here = stack[top];
-            let node = &self.nodes[here as usize];
-            if !node.bounds.overlaps(query) {
+            let entry = stack[top];
+            let count = (entry & 7) as usize;
+            if count > 0 {
+                visit((entry >> 3) as usize, count);
                 continue;
             }
-            if node.count > 0 {
-                visit(node.index as usize, node.count as usize);
-            } else {
-                // Right pushed first: the left subtree is visited first.
-                stack[top] = node.index;
-                stack[top + 1] = here + 1;
-                top += 2;
+            let node = &self.nodes[(entry >> 3) as usize];
+            // Children pushed last first, so that child 0 is taken first: leaf order.
+            let mut hit = node.overlapping_children(&q);
+            while hit != 0 {
+                let k = 31 - hit.leading_zeros();
+                hit &= !(1 << k);
+                let child = node.entry[k as usize];
+                if child != NO_CHILD {
+                    stack[top] = child;
+                    top += 1;
+                }
             }
         }
     }
+}
+
+/// Builds the binary subtree over items `first..end` (sorted by code) into `nodes`; returns
+/// its bounds.
+fn build(boxes: &[Aabb], codes: &[u64], first: usize, end: usize, nodes: &mut Vec<Node>) -> Aabb {
+    let me = nodes.len();
+    nodes.push(Node {
+        bounds: Aabb::EMPTY,
+        index: first as u32,
+        count: (end - first) as u32,
+    });
+    if end - first <= LEAF_SIZE {
+        let bounds = boxes[first..end]
+            .iter()
+            .fold(Aabb::EMPTY, |a, b| a.union(b));
+        nodes[me].bounds = bounds;
+        return bounds;
+    }
+    let split = split_point(codes, first, end);
+    let left = build(boxes, codes, first, split, nodes);
+    let right_index = nodes.len() as u32;
+    let right = build(boxes, codes, split, end, nodes);
+    let bounds = left.union(&right);
+    nodes[me] = Node {
+        bounds,
+        index: right_index,
+        count: 0,
+    };
+    bounds
+}
+
+/// A binary leaf's [`WideNode::entry`].
+fn leaf_entry(node: &Node) -> u64 {
+    u64::from(node.index) << 3 | u64::from(node.count)
+}
+
+/// Appends the wide node of the inner binary node `at` (its grandchildren, or its children
+/// where they are leaves, in left-to-right order) and, before returning, its inner children's;
+/// returns its index.
+fn collapse(binary: &[Node], at: usize, nodes: &mut Vec<WideNode>) -> usize {
+    let me = nodes.len();
+    nodes.push(WideNode::EMPTY);
+    let mut children = [0usize; 4];
+    let mut n = 0;
+    for c in [at + 1, binary[at].index as usize] {
+        if binary[c].count > 0 {
+            children[n] = c;
+            n += 1;
+        } else {
+            children[n] = c + 1;
+            children[n + 1] = binary[c].index as usize;
+            n += 2;
+        }
+    }
+    let mut node = WideNode::EMPTY;
+    for (k, &c) in children[..n].iter().enumerate() {
+        node.set_bounds(k, &binary[c].bounds);
+        node.entry[k] = if binary[c].count > 0 {
+            leaf_entry(&binary[c])
+        } else {
+            (collapse(binary, c, nodes) as u64) << 3
+        };
+    }
+    nodes[me] = node;
+    me
 }
 
 /// Where to split items `first..end` (sorted by code, at least two): after the last item that
@@ -322,6 +426,20 @@ mod tests {
                 bvh.overlapping(&q, &mut found);
                 found.sort_unstable();
                 prop_assert_eq!(found, brute(&boxes, &q));
+            }
+            // Leaves come in leaf order (the order sums over them are taken in), each once.
+            let mut slots = Vec::new();
+            bvh.leaves_overlapping(&aabb([0.0; 3], [20.0; 3]), |first, count| {
+                slots.extend(first..first + count);
+            });
+            prop_assert_eq!(slots, (0..boxes.len()).collect::<Vec<_>>());
+            for (c, h) in &queries {
+                let mut last = None;
+                bvh.leaves_overlapping(&aabb(*c, *h), |first, count| {
+                    assert!((1..=LEAF_SIZE).contains(&count));
+                    assert!(last.is_none_or(|l| l < first), "{last:?} then {first}");
+                    last = Some(first + count - 1);
+                });
             }
         }
 
