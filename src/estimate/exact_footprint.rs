@@ -7,11 +7,12 @@
 //! `depth^-3` (`dA_image = |h| dA / depth^3`, `h` the eye's distance from the plane, `depth`
 //! along the viewing axis), so the near side of a pixel's quadrilateral stands for more image
 //! area per square metre than its far side; across one pixel the ratio varies by 0.5-2% on the
-//! canonical 640 x 480 view's floor and 2-7% at the stress scenes' 160 x 120. Averaging over surface area instead puts light that
-//! lies off the pixel's centre into it with the wrong weight: invisible in smooth light, but a
-//! focus a fraction of a pixel from a pixel boundary (`scenes/stress/focal-caustic.toml`) came
-//! out 1.2% too bright in the row beside it, against the light tracer (which splats each path
-//! with that very Jacobian) and against the photons themselves binned the same way.
+//! canonical 640 x 480 view's floor and 2-7% at the stress scenes' 160 x 120. Averaging over
+//! surface area instead puts light that lies off the pixel's centre into it with the wrong
+//! weight: invisible in smooth light, but a focus a fraction of a pixel from a pixel boundary
+//! (`scenes/stress/focal-caustic.toml`) came out 1.2% too bright in the row beside it, against
+//! the light tracer (which splats each path with that very Jacobian) and against the photons
+//! themselves binned the same way.
 
 use crate::geometry::disc_integral::quad::QuadFrame;
 use glam::{DVec2, DVec3};

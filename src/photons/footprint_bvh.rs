@@ -207,16 +207,8 @@ impl FootprintBvh {
             build(&boxes, &codes, 0, codes.len(), &mut binary);
         }
         let mut nodes = Vec::with_capacity(binary.len() / 3 + 1);
-        if let Some(root) = binary.first() {
-            if root.count > 0 {
-                // A single leaf: a root holding it alone.
-                let mut node = WideNode::EMPTY;
-                node.set_bounds(0, &root.bounds);
-                node.entry[0] = leaf_entry(root);
-                nodes.push(node);
-            } else {
-                collapse(&binary, 0, &mut nodes);
-            }
+        if !binary.is_empty() {
+            collapse(&binary, 0, &mut nodes);
         }
         FootprintBvh { nodes, boxes, ids }
     }
@@ -268,10 +260,11 @@ impl FootprintBvh {
         if self.nodes.is_empty() {
             return;
         }
-        let q = [query.min, query.max].map(|v| v.to_array().map(f32x4::splat));
-        // Depth is at most 63 bit levels plus log2(n) halvings of equal codes, halved by the
-        // collapse; a node leaves at most three children on the stack.
-        let mut stack = [0u64; 256];
+        let lanes = |v: Vec3| [f32x4::splat(v.x), f32x4::splat(v.y), f32x4::splat(v.z)];
+        let q = [lanes(query.min), lanes(query.max)];
+        // The binary tree is at most 63 bit levels plus 32 halvings of equal codes deep, the
+        // collapsed one at most 48, and each node leaves at most three children on the stack.
+        let mut stack = [0u64; 1 + 3 * 48];
         let mut top = 1;
         while top > 0 {
             top -= 1;
@@ -331,26 +324,27 @@ fn leaf_entry(node: &Node) -> u64 {
     u64::from(node.index) << 3 | u64::from(node.count)
 }
 
-/// Appends the wide node of the inner binary node `at` (its grandchildren, or its children
-/// where they are leaves, in left-to-right order) and, before returning, its inner children's;
-/// returns its index.
+/// Appends the wide node of binary node `at` and, before returning, those of its inner
+/// children; returns its index. Its children are the binary node's grandchildren, or its
+/// children where they are leaves, in left-to-right order; a leaf (a tree of one leaf) is its
+/// own only child.
 fn collapse(binary: &[Node], at: usize, nodes: &mut Vec<WideNode>) -> usize {
     let me = nodes.len();
     nodes.push(WideNode::EMPTY);
-    let mut children = [0usize; 4];
-    let mut n = 0;
-    for c in [at + 1, binary[at].index as usize] {
-        if binary[c].count > 0 {
-            children[n] = c;
-            n += 1;
-        } else {
-            children[n] = c + 1;
-            children[n + 1] = binary[c].index as usize;
-            n += 2;
+    let mut children = Vec::with_capacity(4);
+    if binary[at].count > 0 {
+        children.push(at);
+    } else {
+        for c in [at + 1, binary[at].index as usize] {
+            if binary[c].count > 0 {
+                children.push(c);
+            } else {
+                children.extend([c + 1, binary[c].index as usize]);
+            }
         }
     }
     let mut node = WideNode::EMPTY;
-    for (k, &c) in children[..n].iter().enumerate() {
+    for (k, &c) in children.iter().enumerate() {
         node.set_bounds(k, &binary[c].bounds);
         node.entry[k] = if binary[c].count > 0 {
             leaf_entry(&binary[c])
