@@ -16,7 +16,7 @@
 //! exactly the emission they sample.
 
 use crate::geometry::differential::RayDifferential;
-use crate::geometry::sampling::{r2, sample_cone, sample_cosine, tangent_frame};
+use crate::geometry::sampling::{r2, sample_cone, sample_cosine, tangent_frame, Cone};
 use crate::photons::targets::{cone, cone_solid_angle, specular_targets, Target};
 use crate::scene::{Light, Scene};
 use crate::util::rng::Rng;
@@ -48,6 +48,10 @@ struct Source {
     /// Radius of the emission differentials: angular for point and spot lights, positional for
     /// quad lights.
     spread: f64,
+    /// For point and spot lights, the cone directions are drawn from (the light's, or the
+    /// target's as seen from the light), kept with its tangent frame; `None` for quad lights,
+    /// whose cones start at each emission's point.
+    cone: Option<Cone>,
 }
 
 /// Draws emissions for one photon map.
@@ -86,6 +90,7 @@ impl Emitter {
                     target: None,
                     probability: p,
                     spread,
+                    cone: light_cone(light, None),
                 }
             })
             .collect();
@@ -145,6 +150,7 @@ impl Emitter {
                     target: Some(target),
                     probability: p,
                     spread,
+                    cone: light_cone(&light, Some(&target)),
                 }
             })
             .collect();
@@ -186,7 +192,9 @@ impl Emitter {
     /// carries no power (a quad light's back side).
     #[inline]
     pub fn emit(&self, index: u64, rng: &mut Rng) -> Option<Emission> {
-        self.emit_from_light(index, rng).map(|(e, _)| e)
+        // Not through `emit_from_light`: mapping its answer moves the emission once more.
+        let (k, _) = self.pick_light(rng);
+        self.emit_picked(k, index, rng)
     }
 
     /// Whether this (caustic) emitter can draw direction `d` leaving `from` on `light`: `d` lies
@@ -221,40 +229,35 @@ impl Emitter {
         } else {
             r2(index, self.shift)
         };
-        match (source.light, source.target) {
-            (Light::Point { position, .. } | Light::Spot { position, .. }, None) => {
-                let (axis, cos_max) = match source.light {
-                    Light::Spot {
-                        direction,
-                        cos_cone,
-                        ..
-                    } => (direction, cos_cone),
-                    // Point lights: the equal-area map is smoothest around its axis and
-                    // squeezes the square's boundary into the opposite pole; lights usually
-                    // hang above what they light, so the axis points down.
-                    _ => (DVec3::NEG_Y, -1.0),
+        match source.light {
+            Light::Point { position, .. } | Light::Spot { position, .. } => {
+                let cone = source.cone.expect("point and spot lights keep their cone");
+                let d = cone.sample(u, v);
+                let power = match source.target {
+                    None => {
+                        source.light.intensity_towards(d)
+                            * (cone.solid_angle() / source.probability)
+                    }
+                    Some(_) => {
+                        source.light.intensity_towards(d)
+                            / self.cone_pdf(position, &source.light, d)
+                    }
                 };
-                let d = sample_cone(axis, cos_max, u, v);
-                let omega = cone_solid_angle(cos_max);
-                let power = source.light.intensity_towards(d) * (omega / source.probability);
-                Some(point_emission(position, d, power, source.spread))
+                let mut ray = RayDifferential::new(position, d);
+                // Any orthonormal pair serves a round beam, but a global photon's footprint
+                // after a diffuse bounce adds this pair to the bounce's, vector by vector, so
+                // the pair's orientation is part of the result: `tangent_frame`, as always.
+                let (t1, t2) = tangent_frame(d);
+                ray.dd = [t1 * source.spread, t2 * source.spread];
+                Some(Emission { ray, power })
             }
-            (Light::Point { position, .. } | Light::Spot { position, .. }, Some(target)) => {
-                let (axis, cos_max) = cone(position, &target);
-                let d = sample_cone(axis, cos_max, u, v);
-                let pdf = self.cone_pdf(position, &source.light, d);
-                let power = source.light.intensity_towards(d) / pdf;
-                Some(point_emission(position, d, power, source.spread))
-            }
-            (
-                Light::Quad {
-                    corner,
-                    edge_u,
-                    edge_v,
-                    radiance,
-                },
-                target,
-            ) => {
+            Light::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                radiance,
+            } => {
+                let target = source.target;
                 let cross = edge_u.cross(edge_v);
                 let area = cross.length();
                 let n = cross / area;
@@ -291,20 +294,40 @@ impl Emitter {
             .iter()
             .filter(|s| s.light == *light)
             .filter_map(|s| {
-                let (axis, cos_max) = cone(from, s.target.as_ref()?);
+                let target = s.target.as_ref()?;
+                // A point or spot light's cones are fixed (`from` is the light's position).
+                let (axis, cos_max) = match s.cone {
+                    Some(c) => (c.axis, c.cos_max),
+                    None => cone(from, target),
+                };
                 (d.dot(axis) >= cos_max).then(|| s.probability / cone_solid_angle(cos_max))
             })
             .sum()
     }
 }
 
-/// A photon leaving a point at `position` along `d` with angular differentials of radius `spread`.
-#[inline]
-fn point_emission(position: DVec3, d: DVec3, power: DVec3, spread: f64) -> Emission {
-    let (t1, t2) = tangent_frame(d);
-    let mut ray = RayDifferential::new(position, d);
-    ray.dd = [t1 * spread, t2 * spread];
-    Emission { ray, power }
+/// The cone a point or spot light's photons are drawn from: towards `target` if given, else
+/// the spot's cone or, for a point light, the whole sphere; `None` for quad lights.
+fn light_cone(light: &Light, target: Option<&Target>) -> Option<Cone> {
+    let (axis, cos_max) = match (*light, target) {
+        (Light::Quad { .. }, _) => return None,
+        (Light::Point { position, .. } | Light::Spot { position, .. }, Some(t)) => {
+            cone(position, t)
+        }
+        (
+            Light::Spot {
+                direction,
+                cos_cone,
+                ..
+            },
+            None,
+        ) => (direction, cos_cone),
+        // Point lights: the equal-area map is smoothest around its axis and squeezes the
+        // square's boundary into the opposite pole; lights usually hang above what they light,
+        // so the axis points down.
+        (Light::Point { .. }, None) => (DVec3::NEG_Y, -1.0),
+    };
+    Some(Cone::new(axis, cos_max))
 }
 
 /// Mean-channel power of a light (W): sets how many global photons it emits.

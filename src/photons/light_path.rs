@@ -84,6 +84,20 @@ impl PathState {
         }
     }
 
+    /// Starts the path of `emission` in place (field by field: a lane's state is rewritten at
+    /// every emission, and a whole-struct move goes through `memcpy`).
+    #[inline]
+    pub fn start(&mut self, emission: &Emission) {
+        let ray = &emission.ray;
+        (self.ray.p, self.ray.d, self.ray.dp, self.ray.dd) = (ray.p, ray.d, ray.dp, ray.dd);
+        self.power = emission.power;
+        self.specular = 0;
+        self.diffuse = 0;
+        self.path_length = 0.0;
+        self.tnear = 0.0;
+        self.bounces = 0;
+    }
+
     /// The next ray to trace.
     pub fn query(&self) -> Ray {
         continuation(&self.ray, self.tnear)
@@ -123,8 +137,9 @@ impl LightPaths<'_> {
         rays
     }
 
-    /// Follows many paths at once, 16 to a packet: `next` hands out new paths (a tag of the
-    /// caller's, the emission and its random stream) as lanes fall free, `visit` is called at
+    /// Follows many paths at once, 16 to a packet: `next` starts a new path in a lane that fell
+    /// free (it starts the lane's state with [`PathState::start`], sets its random stream and
+    /// answers the path's tag, a value of the caller's; `None` when no path is left), `visit` is called at
     /// every diffuse hit with the path's tag (as in [`LightPaths::walk`]), and `done` receives
     /// each finished path's tag and its number of rays. Every path takes exactly the steps
     /// `walk` would take with the same random stream: only the grouping of its queries into
@@ -132,7 +147,7 @@ impl LightPaths<'_> {
     /// data be fetched for 16 lanes at once (their cache misses overlap).
     pub fn walk_packets<T>(
         &self,
-        mut next: impl FnMut() -> Option<(T, Emission, Rng)>,
+        mut next: impl FnMut(&mut PathState, &mut Rng) -> Option<T>,
         mut visit: impl FnMut(&T, &DiffuseHit) -> bool,
         mut done: impl FnMut(T, u64),
     ) {
@@ -156,11 +171,9 @@ impl LightPaths<'_> {
             let mut n = 0;
             for k in 0..WIDTH {
                 if tags[k].is_none() && !exhausted {
-                    match next() {
-                        Some((tag, emission, rng)) => {
+                    match next(&mut states[k], &mut rngs[k]) {
+                        Some(tag) => {
                             tags[k] = Some(tag);
-                            states[k] = PathState::new(emission);
-                            rngs[k] = rng;
                             rays[k] = 0;
                         }
                         None => exhausted = true,

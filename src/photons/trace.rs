@@ -224,11 +224,12 @@ impl<'a> PhotonTracer<'a> {
         let mut rays = vec![0u32; (range.end - range.start) as usize];
         let mut indices = range.clone();
         self.paths_for(class).walk_packets(
-            || {
+            |state, rng| {
                 for index in indices.by_ref() {
-                    let mut rng = self.stream(class, index);
-                    if let Some(e) = emitter.emit(index, &mut rng) {
-                        return Some((index, e, rng));
+                    *rng = self.stream(class, index);
+                    if let Some(e) = emitter.emit(index, rng) {
+                        state.start(&e);
+                        return Some(index);
                     }
                 }
                 None
@@ -276,12 +277,15 @@ impl<'a> PhotonTracer<'a> {
                 let stored_before = traced.len();
                 let complete = 'batch: {
                     for (photons, rays) in batch {
-                        let mut photons = photons.into_iter().peekable();
+                        // By position, not a peekable iterator: peeking moves a whole photon
+                        // in and out of the iterator at every emission (most store none).
+                        let mut next = 0;
                         for n in rays {
                             counts.emitted += 1;
                             counts.rays += u64::from(n);
-                            while let Some((_, p)) = photons.next_if(|&(i, _)| i == index) {
-                                traced.push(p);
+                            while next < photons.len() && photons[next].0 == index {
+                                traced.push(photons[next].1);
+                                next += 1;
                             }
                             index += 1;
                             if traced.len() >= target {
