@@ -221,7 +221,7 @@ impl Emitter {
         (k, &self.sources[k].light)
     }
 
-    #[inline]
+    #[inline(always)]
     fn emit_picked(&self, k: usize, index: u64, rng: &mut Rng) -> Option<Emission> {
         let source = &self.sources[k];
         let (u, v) = if self.random {
@@ -251,40 +251,49 @@ impl Emitter {
                 ray.dd = [t1 * source.spread, t2 * source.spread];
                 Some(Emission { ray, power })
             }
-            Light::Quad {
-                corner,
-                edge_u,
-                edge_v,
-                radiance,
-            } => {
-                let target = source.target;
-                let cross = edge_u.cross(edge_v);
-                let area = cross.length();
-                let n = cross / area;
-                let y = corner + edge_u * u + edge_v * v;
-                let (a, b) = (rng.uniform(), rng.uniform());
-                let (d, power) = match target {
-                    None => (
-                        sample_cosine(n, a, b),
-                        radiance * (PI * area / source.probability),
-                    ),
-                    Some(t) => {
-                        let (axis, cos_max) = cone(y, &t);
-                        let d = sample_cone(axis, cos_max, a, b);
-                        let cos_light = d.dot(n);
-                        if cos_light <= 0.0 {
-                            return None;
-                        }
-                        let pdf = self.cone_pdf(y, &source.light, d) / area;
-                        (d, radiance * (cos_light / pdf))
-                    }
-                };
-                let eu = edge_u.normalize();
-                let mut ray = RayDifferential::new(y, d);
-                ray.dp = [eu * source.spread, n.cross(eu) * source.spread];
-                Some(Emission { ray, power })
-            }
+            Light::Quad { .. } => self.emit_quad(source, u, v, rng),
         }
+    }
+
+    /// A quad light's emission (out of line: most scenes' lights are points, and a point
+    /// light's emission inlined into the tracer's loop stays in registers).
+    #[inline(never)]
+    fn emit_quad(&self, source: &Source, u: f64, v: f64, rng: &mut Rng) -> Option<Emission> {
+        let Light::Quad {
+            corner,
+            edge_u,
+            edge_v,
+            radiance,
+        } = source.light
+        else {
+            return None; // only called for quad lights
+        };
+        let target = source.target;
+        let cross = edge_u.cross(edge_v);
+        let area = cross.length();
+        let n = cross / area;
+        let y = corner + edge_u * u + edge_v * v;
+        let (a, b) = (rng.uniform(), rng.uniform());
+        let (d, power) = match target {
+            None => (
+                sample_cosine(n, a, b),
+                radiance * (PI * area / source.probability),
+            ),
+            Some(t) => {
+                let (axis, cos_max) = cone(y, &t);
+                let d = sample_cone(axis, cos_max, a, b);
+                let cos_light = d.dot(n);
+                if cos_light <= 0.0 {
+                    return None;
+                }
+                let pdf = self.cone_pdf(y, &source.light, d) / area;
+                (d, radiance * (cos_light / pdf))
+            }
+        };
+        let eu = edge_u.normalize();
+        let mut ray = RayDifferential::new(y, d);
+        ray.dp = [eu * source.spread, n.cross(eu) * source.spread];
+        Some(Emission { ray, power })
     }
 
     /// Density (per steradian, times the probability of the light's sources) of drawing the
