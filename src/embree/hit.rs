@@ -63,7 +63,10 @@ impl Hit {
         if self.dn_du == DVec3::ZERO && self.dn_dv == DVec3::ZERO {
             return [DVec3::ZERO; 2];
         }
-        dp.map(|dp| self.normal_differential(dp))
+        [
+            self.normal_differential(dp[0]),
+            self.normal_differential(dp[1]),
+        ]
     }
 }
 

@@ -54,7 +54,7 @@ impl RayDifferential {
     /// `dD' = dD`. The new differentials lie in the tangent plane.
     pub fn transfer(&self, t: f64, n: DVec3) -> Self {
         let dn = self.d.dot(n);
-        let dp = self.dp.map(|_| DVec3::ZERO);
+        let dp = [DVec3::ZERO; 2];
         let mut out = RayDifferential {
             p: self.p + self.d * t,
             d: self.d,
@@ -94,7 +94,7 @@ impl RayDifferential {
         let facing = if self.d.dot(frame.n) > 0.0 {
             SurfaceFrame {
                 n: -frame.n,
-                dn: frame.dn.map(|v| -v),
+                dn: [-frame.dn[0], -frame.dn[1]],
             }
         } else {
             *frame

@@ -30,7 +30,10 @@ pub fn surface_frame(hit: &Hit, at: &RayDifferential) -> (SurfaceFrame, DVec3) {
     let frame = if ns.dot(d) < 0.0 {
         SurfaceFrame {
             n: ns,
-            dn: hit.normal_differentials(at.dp).map(|dn| dn * side),
+            dn: {
+                let [a, b] = hit.normal_differentials(at.dp);
+                [a * side, b * side]
+            },
         }
     } else {
         SurfaceFrame {
