@@ -60,7 +60,8 @@ pub fn quarter_sin_cos(x: f64) -> (f64, f64) {
     // than Horner's eight. Not `mul_add`: without FMA in the target's baseline (x86-64) it
     // is a libm call.
     let x2 = x * x;
-    let (x4, x8) = (x2 * x2, x2 * x2 * x2 * x2);
+    let x4 = x2 * x2;
+    let x8 = x4 * x4;
     let estrin = |k: &[f64; 8]| {
         let (p0, p1) = (k[0] + k[1] * x2, k[2] + k[3] * x2);
         let (p2, p3) = (k[4] + k[5] * x2, k[6] + k[7] * x2);
