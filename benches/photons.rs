@@ -124,6 +124,23 @@ fn main() {
             median(t_map[k].clone()),
         );
     }
+    // Each repetition timed tracing and raw Embree back to back: their ratio within a
+    // repetition shows how far the shared machine's noise moves the medians' ratio above.
+    println!();
+    for (k, &(name, ..)) in maps.iter().enumerate() {
+        let mut within: Vec<f64> = t_raw1[k]
+            .iter()
+            .zip(&t_trace[k])
+            .map(|(raw, trace)| raw / trace)
+            .collect();
+        within.sort_by(f64::total_cmp);
+        println!(
+            "{name}: ratio to rtcIntersect1 within each repetition: lowest {:.2}, median {:.2}, highest {:.2}",
+            within[0],
+            within[within.len() / 2],
+            within[within.len() - 1]
+        );
+    }
     let (cmap, gmap) = (&built[0], &built[1]);
 
     // Gathers at the floor points the camera sees.
