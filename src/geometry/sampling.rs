@@ -123,12 +123,27 @@ pub fn sample_cone(w: DVec3, cos_max: f64, u: f64, v: f64) -> DVec3 {
     Cone::new(w, cos_max).sample(u, v)
 }
 
+/// `(sin, cos)` of the angle `2 pi v` for `v` in `[0, 1]`: the nearest quarter turn taken out
+/// exactly (`v - q/4` is exact near `q/4`), the rest by [`quarter_sin_cos`], then turned back
+/// by `q` quarter turns. libm's `sincos` without its general range reduction.
+#[inline]
+pub fn turn_sin_cos(v: f64) -> (f64, f64) {
+    let q = (4.0 * v + 0.5) as i64; // v >= 0: truncation rounds to nearest
+    let (s, c) = quarter_sin_cos(2.0 * PI * (v - 0.25 * q as f64));
+    match q & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
 /// A cosine-distributed unit vector about `n`.
 pub fn sample_cosine(n: DVec3, u: f64, v: f64) -> DVec3 {
     let r = u.sqrt();
-    let phi = 2.0 * PI * v;
+    let (sin, cos) = turn_sin_cos(v);
     let (t1, t2) = tangent_frame(n);
-    (n * (1.0 - u).max(0.0).sqrt() + t1 * (r * phi.cos()) + t2 * (r * phi.sin())).normalize()
+    (n * (1.0 - u).max(0.0).sqrt() + t1 * (r * cos) + t2 * (r * sin)).normalize()
 }
 
 /// The plastic-number (R2) low-discrepancy sequence: every prefix is well stratified in 2D,
@@ -156,6 +171,18 @@ mod tests {
             worst = worst.max((s - x.sin()).abs()).max((c - x.cos()).abs());
         }
         assert!(worst <= 4.0 * f64::EPSILON, "{worst:e}");
+    }
+
+    #[test]
+    fn turn_sin_cos_matches_libm_to_rounding() {
+        let mut worst = 0.0f64;
+        for i in 0..=100_000 {
+            let v = i as f64 / 100_000.0;
+            let (s, c) = turn_sin_cos(v);
+            let phi = 2.0 * PI * v;
+            worst = worst.max((s - phi.sin()).abs()).max((c - phi.cos()).abs());
+        }
+        assert!(worst <= 8.0 * f64::EPSILON, "{worst:e}");
     }
 
     #[test]
