@@ -8,6 +8,7 @@ use crate::photons::footprint_bvh::{footprint_box, Aabb, FootprintBvh};
 use glam::{DVec3, Vec3};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
+use rayon::prelude::*;
 use std::num::NonZero;
 use std::sync::OnceLock;
 
@@ -105,9 +106,14 @@ impl PhotonMap {
     /// Builds the footprint BVH over `photons`.
     pub fn new(class: PathClass, photons: Vec<Photon>, emitted: u64, guards: Guards) -> Self {
         let max_radius = photons.iter().map(|p| p.radius).fold(0.0, f32::max);
-        let boxes: Vec<Aabb> = photons.iter().map(footprint_box).collect();
+        // Per photon and independent: on the worker threads (in order, so the map is the same).
+        let boxes: Vec<Aabb> = photons.par_iter().map(footprint_box).collect();
         let mut bvh = FootprintBvh::new(&boxes);
-        let photons: Vec<Photon> = bvh.order().iter().map(|&i| photons[i as usize]).collect();
+        let photons: Vec<Photon> = bvh
+            .order()
+            .par_iter()
+            .map(|&i| photons[i as usize])
+            .collect();
         bvh.renumber();
         let cover = CoverTable::new(&photons);
         PhotonMap {

@@ -381,14 +381,16 @@ impl<'a> PhotonTracer<'a> {
         let (traced, counts) = self.trace_photons(emitter, class, stop, progress);
         let limits = self.options.limits(self.scene);
         let scale = 1.0 / counts.emitted.max(1) as f64;
-        let mut guards = Guards::default();
-        let photons: Vec<Photon> = traced
-            .iter()
+        // Each photon's footprint on its own, on the worker threads (in order), with the
+        // guards it tripped; their counts are summed after.
+        let (photons, tripped): (Vec<Photon>, Vec<Guards>) = traced
+            .par_iter()
             .map(|t| {
                 // A photon whose differential degenerated is given the footprint its beam would
                 // have had without focusing: its angular spread times the distance travelled.
                 let nominal = (self.diffuse_spread * t.path_length)
                     .clamp(limits.min_radius, limits.max_radius);
+                let mut guards = Guards::default();
                 let f = footprint(
                     t.ray.dp[0],
                     t.ray.dp[1],
@@ -397,9 +399,14 @@ impl<'a> PhotonTracer<'a> {
                     nominal,
                     &mut guards,
                 );
-                Photon::new(t.ray.p, t.normal, t.ray.d, t.power * scale, &f)
+                let photon = Photon::new(t.ray.p, t.normal, t.ray.d, t.power * scale, &f);
+                (photon, guards)
             })
-            .collect();
+            .unzip();
+        let mut guards = Guards::default();
+        for g in &tripped {
+            guards.add(g);
+        }
         (
             PhotonMap::new(class, photons, counts.emitted, guards),
             counts,
