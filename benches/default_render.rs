@@ -20,7 +20,7 @@ use std::path::PathBuf;
 
 #[path = "common/mod.rs"]
 mod common;
-use common::{env_or, median, render_process as render, scene_with_reference};
+use common::{env_or, median, ratio_spread, render_process as render, scene_with_reference};
 
 fn main() -> Result<(), String> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
@@ -102,16 +102,11 @@ fn main() -> Result<(), String> {
         default_errors = e;
     }
     let ratio = median(times[1].clone()) / base;
-    // The ratio within each repetition (the two processes ran back to back): its spread shows
-    // how much of a miss or a margin this shared machine's noise can account for.
-    let mut within: Vec<f64> = times[1].iter().zip(&times[0]).map(|(d, r)| d / r).collect();
-    within.sort_by(f64::total_cmp);
+    // The two processes ran back to back in each repetition.
+    let (lowest, middle, highest) = ratio_spread(&times[1], &times[0]);
     println!(
-        "\nThe ratio within each repetition: lowest {:.2}, median {:.2}, highest {:.2} ({} repetitions).",
-        within[0],
-        median(within.clone()),
-        within[within.len() - 1],
-        within.len()
+        "\nThe ratio within each repetition: lowest {lowest:.2}, median {middle:.2}, highest {highest:.2} ({} repetitions).",
+        times[1].len()
     );
     println!("The default's mean in the shadow against the reference's: x{shadow_mean:.4}.");
     let checks = [

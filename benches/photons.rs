@@ -21,12 +21,10 @@ use photondiff::scene::file::load_scene;
 use std::path::Path;
 use std::time::Instant;
 
-const REPEATS: usize = 7;
+mod common;
+use common::{median, ratio_spread};
 
-fn median(mut t: Vec<f64>) -> f64 {
-    t.sort_by(f64::total_cmp);
-    t[t.len() / 2]
-}
+const REPEATS: usize = 7;
 
 fn main() {
     let path = Path::new(concat!(
@@ -124,21 +122,12 @@ fn main() {
             median(t_map[k].clone()),
         );
     }
-    // Each repetition timed tracing and raw Embree back to back: their ratio within a
-    // repetition shows how far the shared machine's noise moves the medians' ratio above.
+    // Each repetition timed tracing and raw Embree back to back.
     println!();
     for (k, &(name, ..)) in maps.iter().enumerate() {
-        let mut within: Vec<f64> = t_raw1[k]
-            .iter()
-            .zip(&t_trace[k])
-            .map(|(raw, trace)| raw / trace)
-            .collect();
-        within.sort_by(f64::total_cmp);
+        let (lowest, middle, highest) = ratio_spread(&t_raw1[k], &t_trace[k]);
         println!(
-            "{name}: ratio to rtcIntersect1 within each repetition: lowest {:.2}, median {:.2}, highest {:.2}",
-            within[0],
-            within[within.len() / 2],
-            within[within.len() - 1]
+            "{name}: ratio to rtcIntersect1 within each repetition: lowest {lowest:.2}, median {middle:.2}, highest {highest:.2}"
         );
     }
     let (cmap, gmap) = (&built[0], &built[1]);

@@ -20,6 +20,15 @@ pub fn median(mut t: Vec<f64>) -> f64 {
     t[t.len() / 2]
 }
 
+/// The ratio `a[i] / b[i]` of times measured back to back in each repetition `i`: lowest,
+/// median and highest. Its spread shows how much of a ratio of medians the shared machine's
+/// noise can move.
+pub fn ratio_spread(a: &[f64], b: &[f64]) -> (f64, f64, f64) {
+    let mut r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
+    r.sort_by(f64::total_cmp);
+    (r[0], r[r.len() / 2], r[r.len() - 1])
+}
+
 /// Runs `photondiff render SCENE -q -o OUT ARGS...` (this package's binary); returns its wall
 /// time in seconds. Its standard error (the open scene's global map falls short, a warning that
 /// would repeat every run) is shown only when it fails.

@@ -251,23 +251,26 @@ impl Emitter {
                 ray.dd = [t1 * source.spread, t2 * source.spread];
                 Some(Emission { ray, power })
             }
-            Light::Quad { .. } => self.emit_quad(source, u, v, rng),
+            Light::Quad {
+                corner,
+                edge_u,
+                edge_v,
+                radiance,
+            } => self.emit_quad(source, [corner, edge_u, edge_v, radiance], (u, v), rng),
         }
     }
 
-    /// A quad light's emission (out of line: most scenes' lights are points, and a point
+    /// The emission of `source`, a quad light `[corner, edge_u, edge_v, radiance]`, at the
+    /// point `(u, v)` of its square (out of line: most scenes' lights are points, and a point
     /// light's emission inlined into the tracer's loop stays in registers).
     #[inline(never)]
-    fn emit_quad(&self, source: &Source, u: f64, v: f64, rng: &mut Rng) -> Option<Emission> {
-        let Light::Quad {
-            corner,
-            edge_u,
-            edge_v,
-            radiance,
-        } = source.light
-        else {
-            return None; // only called for quad lights
-        };
+    fn emit_quad(
+        &self,
+        source: &Source,
+        [corner, edge_u, edge_v, radiance]: [DVec3; 4],
+        (u, v): (f64, f64),
+        rng: &mut Rng,
+    ) -> Option<Emission> {
         let target = source.target;
         let cross = edge_u.cross(edge_v);
         let area = cross.length();

@@ -331,20 +331,27 @@ fn leaf_entry(node: &Node) -> u64 {
 fn collapse(binary: &[Node], at: usize, nodes: &mut Vec<WideNode>) -> usize {
     let me = nodes.len();
     nodes.push(WideNode::EMPTY);
-    let mut children = Vec::with_capacity(4);
+    // At most four children, in a fixed array: a `Vec` here allocated once per node.
+    let mut children = [0usize; 4];
+    let mut n = 0;
+    let mut push = |c: usize| {
+        children[n] = c;
+        n += 1;
+    };
     if binary[at].count > 0 {
-        children.push(at);
+        push(at);
     } else {
         for c in [at + 1, binary[at].index as usize] {
             if binary[c].count > 0 {
-                children.push(c);
+                push(c);
             } else {
-                children.extend([c + 1, binary[c].index as usize]);
+                push(c + 1);
+                push(binary[c].index as usize);
             }
         }
     }
     let mut node = WideNode::EMPTY;
-    for (k, &c) in children.iter().enumerate() {
+    for (k, &c) in children[..n].iter().enumerate() {
         node.set_bounds(k, &binary[c].bounds);
         node.entry[k] = if binary[c].count > 0 {
             leaf_entry(&binary[c])

@@ -88,14 +88,22 @@ impl PathState {
     /// every emission, and a whole-struct move goes through `memcpy`).
     #[inline]
     pub fn start(&mut self, emission: &Emission) {
-        let ray = &emission.ray;
-        (self.ray.p, self.ray.d, self.ray.dp, self.ray.dd) = (ray.p, ray.d, ray.dp, ray.dd);
-        self.power = emission.power;
-        self.specular = 0;
-        self.diffuse = 0;
-        self.path_length = 0.0;
-        self.tnear = 0.0;
-        self.bounces = 0;
+        // Every field named, so that a field added to the state cannot be left stale here
+        // (`new` builds the same state as a literal).
+        let PathState {
+            ray,
+            power,
+            specular,
+            diffuse,
+            path_length,
+            tnear,
+            bounces,
+        } = self;
+        let e = &emission.ray;
+        (ray.p, ray.d, ray.dp, ray.dd) = (e.p, e.d, e.dp, e.dd);
+        *power = emission.power;
+        (*specular, *diffuse, *bounces) = (0, 0, 0);
+        (*path_length, *tnear) = (0.0, 0.0);
     }
 
     /// The next ray to trace.
