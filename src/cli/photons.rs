@@ -36,6 +36,12 @@ pub struct PhotonsArgs {
     /// `--estimator pd` and the thesis's other estimators take `--global-aim 0`).
     #[arg(long, value_name = "P", default_value_t = photondiff::render::passes::DEFAULT_GLOBAL_AIM)]
     global_aim: f64,
+    /// Whether each photon's footprint is probed for walls and edges and a mirror photon added
+    /// beyond the nearest (as `render --probe-walls`; the default is the default
+    /// render's, true: maps for `--estimator pd` and the thesis's other estimators take
+    /// `--probe-walls false`).
+    #[arg(long, value_name = "BOOL", default_value_t = photondiff::render::passes::DEFAULT_PROBE_WALLS, action = clap::ArgAction::Set)]
+    probe_walls: bool,
     /// Seed of the photons' random streams (as `render --seed`).
     #[arg(long, value_name = "S", default_value_t = 0)]
     seed: u64,
@@ -73,6 +79,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         overlap: args.overlap,
         seed: args.seed,
         global_aim: args.global_aim,
+        probe_walls: args.probe_walls,
         ..PhotonOptions::default()
     };
     let mut stats = Stats::default();

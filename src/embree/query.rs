@@ -137,10 +137,81 @@ impl Scene {
     /// `hits[i]` answers `rays[i]`; invalid rays are answered `None` and counted.
     pub fn intersect16(&self, rays: &[Ray], coherent: bool, hits: &mut [Option<Hit>]) {
         assert!(rays.len() <= PACKET_WIDTH && hits.len() >= rays.len());
+        let (mut packet, mut valid) = (RayHit16::default(), Valid16::default());
+        self.trace16(rays, coherent, &mut packet, &mut valid);
+        let (r, h) = (&packet.0.ray, &packet.0.hit);
+        let hit_lanes = || {
+            (0..rays.len()).filter(|&l| valid.0[l] != 0 && h.geomID[l] != ffi::INVALID_GEOMETRY_ID)
+        };
+        let mut ids = [0u32; PACKET_WIDTH];
+        let mut vertices = [([DVec3::ZERO; 3], None); PACKET_WIDTH];
+        self.hit_triangles16(h, hit_lanes(), &mut ids, &mut vertices);
+        hits[..rays.len()].fill(None);
+        for l in hit_lanes() {
+            hits[l] = Some(complete_hit(
+                &rays[l],
+                ids[l],
+                h.primID[l],
+                h.u[l],
+                h.v[l],
+                r.tfar[l],
+                vertices[l],
+            ));
+        }
+    }
+
+    /// The distance to the closest hit and its unit geometric normal (world space,
+    /// `(p1 - p0) x (p2 - p0)` normalised, as [`Hit::geometric_normal`]) for up to 16 rays
+    /// traced as one packet: `out[i]` answers `rays[i]`, `None` for a miss or an invalid ray
+    /// (counted). Cheaper than [`Scene::intersect16`] (no position, shading normal or
+    /// derivatives): for probes that need only how far a ray got and what it met.
+    pub fn hit_normals16(&self, rays: &[Ray], coherent: bool, out: &mut [Option<(f64, DVec3)>]) {
+        assert!(rays.len() <= PACKET_WIDTH && out.len() >= rays.len());
+        let (mut packet, mut valid) = (RayHit16::default(), Valid16::default());
+        self.trace16(rays, coherent, &mut packet, &mut valid);
+        let (r, h) = (&packet.0.ray, &packet.0.hit);
+        let hit_lanes = || {
+            (0..rays.len()).filter(|&l| valid.0[l] != 0 && h.geomID[l] != ffi::INVALID_GEOMETRY_ID)
+        };
+        let mut ids = [0u32; PACKET_WIDTH];
+        let mut vertices = [([DVec3::ZERO; 3], None); PACKET_WIDTH];
+        self.hit_triangles16(h, hit_lanes(), &mut ids, &mut vertices);
+        out[..rays.len()].fill(None);
+        for l in hit_lanes() {
+            let [p0, p1, p2] = vertices[l].0;
+            out[l] = Some((f64::from(r.tfar[l]), (p1 - p0).cross(p2 - p0).normalize()));
+        }
+    }
+
+    /// The top-level ids and world-space vertices (with vertex normals, where the mesh has them)
+    /// of the triangles hit in `lanes` of a packet's answer, into `ids` and `vertices`.
+    /// They are read for every lane before the next step: on a large mesh each read (the
+    /// triangle's indices, then its vertices) is a cache miss, and one lane at a time they
+    /// would wait in turn; so the lanes' misses overlap.
+    fn hit_triangles16(
+        &self,
+        h: &ffi::RTCHit16,
+        lanes: impl Iterator<Item = usize> + Clone,
+        ids: &mut [u32; PACKET_WIDTH],
+        vertices: &mut [([DVec3; 3], Option<[DVec3; 3]>); PACKET_WIDTH],
+    ) {
+        let mut triangles = [[0u32; 3]; PACKET_WIDTH];
+        for l in lanes.clone() {
+            ids[l] = top_level(h.geomID[l], h.instID[0][l]);
+            triangles[l] = self.geometries[ids[l] as usize].triangle(h.primID[l]);
+        }
+        for l in lanes {
+            vertices[l] = self.geometries[ids[l] as usize].world_vertices(triangles[l]);
+        }
+    }
+
+    /// Traces up to 16 rays as one packet into `packet` (fresh), marking in `valid` (fresh)
+    /// the lanes that held a valid ray (the others are counted as invalid and left as misses).
+    /// Out-parameters, not a returned pair: the packet is over a kilobyte, and a returned one
+    /// may be copied on the hot path of photon tracing.
+    fn trace16(&self, rays: &[Ray], coherent: bool, packet: &mut RayHit16, valid: &mut Valid16) {
         // As in `occluded16`: no coherent packets through instances.
         let coherent = coherent && !self.has_instances();
-        let mut packet = RayHit16::default();
-        let mut valid = Valid16::default();
         for (lane, ray) in rays.iter().enumerate() {
             if ray.is_valid() {
                 set_lane(&mut packet.0.ray, lane, ray);
@@ -171,35 +242,6 @@ impl Scene {
                 unsafe { api::intersect1(self.raw, &mut rayhit, &mut args) };
                 store_lane(&mut packet.0, lane, &rayhit);
             }
-        }
-        let (r, h) = (&packet.0.ray, &packet.0.hit);
-        // Completing a hit reads the triangle's indices, then its vertices and normals: on a
-        // large mesh each is a cache miss, and one lane at a time they would wait in turn.
-        // Each step is done for every lane before the next, so the lanes' misses overlap.
-        let hit_lanes = || {
-            (0..rays.len()).filter(|&l| valid.0[l] != 0 && h.geomID[l] != ffi::INVALID_GEOMETRY_ID)
-        };
-        let mut ids = [0u32; PACKET_WIDTH];
-        let mut triangles = [[0u32; 3]; PACKET_WIDTH];
-        for l in hit_lanes() {
-            ids[l] = top_level(h.geomID[l], h.instID[0][l]);
-            triangles[l] = self.geometries[ids[l] as usize].triangle(h.primID[l]);
-        }
-        let mut vertices = [([DVec3::ZERO; 3], None); PACKET_WIDTH];
-        for l in hit_lanes() {
-            vertices[l] = self.geometries[ids[l] as usize].world_vertices(triangles[l]);
-        }
-        hits[..rays.len()].fill(None);
-        for l in hit_lanes() {
-            hits[l] = Some(complete_hit(
-                &rays[l],
-                ids[l],
-                h.primID[l],
-                h.u[l],
-                h.v[l],
-                r.tfar[l],
-                vertices[l],
-            ));
         }
     }
 

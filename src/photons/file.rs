@@ -1,8 +1,9 @@
 //! Photon maps as files: traced once (`photondiff photons`), read by every process of a split
 //! render (`render --photon-maps`).
 //!
-//! Format, version 2 (version 1 counted `--photons` as global emissions, not stored photons;
-//! its files are refused), all integers and floats little-endian:
+//! Format, version 3 (version 1 counted `--photons` as global emissions, not stored photons;
+//! version 2 had no count of photons mirrored at walls; their files are refused), all
+//! integers and floats little-endian:
 //!
 //! | bytes | content |
 //! |---|---|
@@ -14,27 +15,28 @@
 //! | 8 | checksum: XXH3-64 of every byte before it |
 //!
 //! A map is `emitted, stored, rays` (u64: its [`TraceCounts`]), its guard counts
-//! (`clamped_min, clamped_max, clamped_anisotropy, fallback`, u64), the photon count `n` (u64),
+//! (`clamped_min, clamped_max, clamped_anisotropy, fallback, mirrored`, u64), the mirror
+//! photons' power (3 f64, as their bits in u64s), the photon count `n` (u64),
 //! then `n` photons of 20 f32 each: position, normal, direction, power (3 each), the filter
 //! matrix rows `m[0]`, `m[1]` (3 each), `inv_area`, `radius`. The settings are the photon
 //! options as the command line spells them (`--photons`, `--caustic-photons`, `--overlap`,
-//! `--seed`) plus the fixed ones, every value as its exact decimal text. Kd-trees are not
+//! `--seed`, `--global-aim`, `--probe-walls`) plus the fixed ones, every value as its exact decimal text. Kd-trees are not
 //! stored: they are rebuilt on loading (see `benches/photon_file.rs` for the cost).
 
 use super::footprint::Guards;
 use super::map::{PathClass, Photon, PhotonMap};
 use super::trace::{PhotonOptions, TraceCounts};
 use super::PhotonMaps;
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"PDPHOTON";
 /// The format version this build writes and reads.
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 const PHOTON_BYTES: usize = 20 * 4;
-const MAP_HEADER_BYTES: usize = 8 * 8;
+const MAP_HEADER_BYTES: usize = 12 * 8;
 
 /// What a file is for: the scene's content hash and the photon settings.
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -52,6 +54,7 @@ pub fn settings(options: &PhotonOptions) -> BTreeMap<String, String> {
         ("--overlap", options.overlap.to_string()),
         ("--seed", options.seed.to_string()),
         ("--global-aim", options.global_aim.to_string()),
+        ("--probe-walls", options.probe_walls.to_string()),
         ("max_bounces", options.max_bounces.to_string()),
         (
             "radius_limits",
@@ -78,6 +81,10 @@ fn push_map(out: &mut Vec<u8>, map: &PhotonMap, counts: &TraceCounts) {
         g.clamped_max,
         g.clamped_anisotropy,
         g.fallback,
+        g.mirrored,
+        map.mirror_power.x.to_bits(),
+        map.mirror_power.y.to_bits(),
+        map.mirror_power.z.to_bits(),
         map.photons.len() as u64,
     ] {
         out.extend_from_slice(&v.to_le_bytes());
@@ -152,9 +159,9 @@ fn take_map(
     if bytes.len() < *at + MAP_HEADER_BYTES {
         return Err("payload too short for its maps".into());
     }
-    let v: Vec<u64> = (0..8).map(|k| u64_at(bytes, *at + 8 * k)).collect();
+    let v: Vec<u64> = (0..12).map(|k| u64_at(bytes, *at + 8 * k)).collect();
     *at += MAP_HEADER_BYTES;
-    let n = v[7] as usize;
+    let n = v[11] as usize;
     let size = n
         .checked_mul(PHOTON_BYTES)
         .filter(|s| *at + s <= bytes.len())
@@ -181,13 +188,20 @@ fn take_map(
         clamped_max: v[4],
         clamped_anisotropy: v[5],
         fallback: v[6],
+        mirrored: v[7],
     };
     let counts = TraceCounts {
         emitted: v[0],
         stored: v[1],
         rays: v[2],
     };
-    Ok((PhotonMap::new(class, photons, v[0], guards), counts))
+    let mut map = PhotonMap::new(class, photons, v[0], guards);
+    map.mirror_power = DVec3::new(
+        f64::from_bits(v[8]),
+        f64::from_bits(v[9]),
+        f64::from_bits(v[10]),
+    );
+    Ok((map, counts))
 }
 
 /// Reads a photon-map file for the scene with content hash `scene_hash` traced with
@@ -305,8 +319,11 @@ mod tests {
             clamped_max: 2,
             clamped_anisotropy: 3,
             fallback: 4,
+            mirrored: 5,
         };
-        PhotonMap::new(class, photons, 10 * n as u64, guards)
+        let mut map = PhotonMap::new(class, photons, 10 * n as u64, guards);
+        map.mirror_power = DVec3::new(0.1, 1.0 / 3.0, 7e-9);
+        map
     }
 
     #[test]
@@ -333,6 +350,7 @@ mod tests {
         let (back, back_counts) = decode(&bytes, 0xabc, &options).unwrap();
         assert_eq!(back.caustic.photons, maps.caustic.photons);
         assert_eq!(back.caustic.guards, maps.caustic.guards);
+        assert_eq!(back.caustic.mirror_power, maps.caustic.mirror_power);
         assert_eq!(back.caustic.emitted, 370);
         assert_eq!(back.caustic.max_radius, maps.caustic.max_radius);
         assert!(back.global.is_empty());

@@ -35,6 +35,9 @@ pub struct Guards {
     /// Non-finite or zero-area footprints replaced by a round footprint of the nominal radius
     /// (a regular photon).
     pub fallback: u64,
+    /// Footprints that run into a wall or off an edge, given a mirror photon beyond it
+    /// ([`crate::photons::walls`]; the map holds the mirrors besides the photons stored).
+    pub mirrored: u64,
 }
 
 impl Guards {
@@ -44,9 +47,11 @@ impl Guards {
         self.clamped_max += other.clamped_max;
         self.clamped_anisotropy += other.clamped_anisotropy;
         self.fallback += other.fallback;
+        self.mirrored += other.mirrored;
     }
 
-    /// Total number of guarded footprints (a footprint may count under several guards).
+    /// Total number of guarded footprints (a footprint may count under several guards; the
+    /// mirrored ones are not guarded and do not count).
     pub fn total(&self) -> u64 {
         self.clamped_min + self.clamped_max + self.clamped_anisotropy + self.fallback
     }

@@ -91,6 +91,9 @@ pub struct PhotonMap {
     pub emitted: u64,
     /// Guarded footprints.
     pub guards: Guards,
+    /// Power of the mirror photons among `photons` ([`crate::photons::walls`]): they stand for
+    /// the part of other photons' footprints beyond a wall, not for light of their own.
+    pub mirror_power: DVec3,
     /// Largest footprint circumradius in the map.
     pub max_radius: f32,
     /// Over every photon's position, for k-nearest queries: built on the first such query (only
@@ -121,6 +124,7 @@ impl PhotonMap {
             photons,
             emitted,
             guards,
+            mirror_power: DVec3::ZERO,
             max_radius,
             tree: OnceLock::new(),
             bvh,
@@ -138,9 +142,13 @@ impl PhotonMap {
         self.photons.is_empty()
     }
 
-    /// Total stored power.
+    /// Total power of the photons stored (the mirror photons' excluded).
     pub fn total_power(&self) -> DVec3 {
-        self.photons.iter().map(|p| p.power.as_dvec3()).sum()
+        self.photons
+            .iter()
+            .map(|p| p.power.as_dvec3())
+            .sum::<DVec3>()
+            - self.mirror_power
     }
 
     /// Indices (any order) of a superset of the photons whose footprint, grown by `reach`, may

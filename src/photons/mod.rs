@@ -3,6 +3,7 @@
 //! footprint ([`footprint`]), gathered into photon maps ([`map`]) with a BVH over footprint
 //! boxes ([`footprint_bvh`]) and an exact test of what a footprint may cover ([`cover`]); for
 //! final gathering, radiance precomputed at photons of every diffuse hit ([`radiance_map`]).
+//! Footprints that run into a wall or off an edge get a mirror photon beyond it ([`walls`]).
 
 pub mod cover;
 pub mod emission;
@@ -14,6 +15,7 @@ pub mod map;
 pub mod radiance_map;
 pub mod targets;
 pub mod trace;
+pub mod walls;
 
 use map::PhotonMap;
 use radiance_map::RadianceMap;

@@ -14,6 +14,7 @@ use crate::photons::footprint::{footprint, FootprintLimits, Guards};
 use crate::photons::light_path::{DiffuseHit, LightPaths};
 use crate::photons::map::{PathClass, Photon, PhotonMap};
 use crate::photons::targets::{specular_targets, DiffuseAim};
+use crate::photons::walls;
 use crate::scene::Scene;
 use crate::util::rng::Rng;
 use glam::DVec3;
@@ -56,6 +57,10 @@ pub struct PhotonOptions {
     /// radiance map for final gathering ([`crate::photons::radiance_map`]) instead of a photon
     /// map viewed directly. Default false.
     pub radiance_map: bool,
+    /// Whether each photon's footprint is probed for walls and edges, and a mirror photon added
+    /// beyond the nearest ([`crate::photons::walls`]; one packet of 16 rays a photon). Default false (the thesis's photon maps); the default render uses
+    /// [`crate::render::passes::DEFAULT_PROBE_WALLS`].
+    pub probe_walls: bool,
 }
 
 impl Default for PhotonOptions {
@@ -70,6 +75,7 @@ impl Default for PhotonOptions {
             seed: 0,
             global_aim: 0.0,
             radiance_map: false,
+            probe_walls: false,
         }
     }
 }
@@ -370,7 +376,8 @@ impl<'a> PhotonTracer<'a> {
     }
 
     /// [`PhotonTracer::trace_photons`], then the photons' powers divided by the number of
-    /// emissions and their footprints, in the map of `class`.
+    /// emissions and their footprints, in the map of `class` (with a mirror photon beyond each
+    /// wall or edge a footprint runs into, with [`PhotonOptions::probe_walls`]).
     pub fn build_map(
         &self,
         emitter: &Emitter,
@@ -382,8 +389,8 @@ impl<'a> PhotonTracer<'a> {
         let limits = self.options.limits(self.scene);
         let scale = 1.0 / counts.emitted.max(1) as f64;
         // Each photon's footprint on its own, on the worker threads (in order), with the
-        // guards it tripped; their counts are summed after.
-        let (photons, tripped): (Vec<Photon>, Vec<Guards>) = traced
+        // guards it tripped and its mirror photon at a wall; the counts are summed after.
+        let (photons, tripped): (Vec<[Option<Photon>; 2]>, Vec<Guards>) = traced
             .par_iter()
             .map(|t| {
                 // A photon whose differential degenerated is given the footprint its beam would
@@ -399,18 +406,35 @@ impl<'a> PhotonTracer<'a> {
                     nominal,
                     &mut guards,
                 );
-                let photon = Photon::new(t.ray.p, t.normal, t.ray.d, t.power * scale, &f);
-                (photon, guards)
+                let (p, d, power) = (t.ray.p, t.ray.d, t.power * scale);
+                let mirror = self
+                    .options
+                    .probe_walls
+                    .then(|| walls::nearest_wall(self.embree, p, t.normal, &f, self.paths.epsilon))
+                    .flatten()
+                    .map(|wall| {
+                        guards.mirrored += 1;
+                        let (at, f) = (wall.reflect_point(p, p), wall.reflect_footprint(&f));
+                        Photon::new(at, t.normal, wall.reflect_vector(d), power, &f)
+                    });
+                (
+                    [Some(Photon::new(p, t.normal, d, power, &f)), mirror],
+                    guards,
+                )
             })
             .unzip();
+        let mirror_power = photons
+            .iter()
+            .filter_map(|[_, mirror]| mirror.map(|m| m.power.as_dvec3()))
+            .sum();
+        let photons: Vec<Photon> = photons.into_iter().flatten().flatten().collect();
         let mut guards = Guards::default();
         for g in &tripped {
             guards.add(g);
         }
-        (
-            PhotonMap::new(class, photons, counts.emitted, guards),
-            counts,
-        )
+        let mut map = PhotonMap::new(class, photons, counts.emitted, guards);
+        map.mirror_power = mirror_power;
+        (map, counts)
     }
 }
 

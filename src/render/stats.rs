@@ -252,7 +252,8 @@ impl Stats {
         for m in &self.photon_maps {
             out += &format!(
                 "  {} map: {} photons stored from {} emissions ({} rays), power {:.4} W; \
-                 guarded footprints: {} clamped small, {} clamped large, {} anisotropy, {} fallback\n",
+                 guarded footprints: {} clamped small, {} clamped large, {} anisotropy, {} fallback; \
+                 {} mirrored at walls and edges\n",
                 capitalised(m.class.name()),
                 m.stored,
                 m.emitted,
@@ -261,7 +262,8 @@ impl Stats {
                 m.guards.clamped_min,
                 m.guards.clamped_max,
                 m.guards.clamped_anisotropy,
-                m.guards.fallback
+                m.guards.fallback,
+                m.guards.mirrored
             );
         }
         let g = &self.gathers;

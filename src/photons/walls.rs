@@ -1,0 +1,138 @@
+//! Footprints that run into a wall or off an edge: a mirror photon beyond the wall gives back
+//! the part of the footprint no gather sees (the reflection method of kernel density
+//! estimation).
+//!
+//! Why: a photon stored beside a wall (the floor at the foot of a box) or near the end of its
+//! surface (the box's top, near its rim) has a footprint of which part lies under the wall or in
+//! the air, where no gather ever looks. That part of its power is lost, and every estimate within
+//! a footprint's radius of a wall or an edge is too dark: half as bright at the wall itself, in
+//! the limit of many photons. Progressive passes narrow the dark band only as fast as the
+//! footprints' radius shrinks (`N^((alpha - 1) / 2)`, slower than the noise falls): on the
+//! over-an-edge stress scene, where the caustic peaks at the foot of a box, it was most of the
+//! caustic's error after 64 passes (README, "Footprints at walls and edges").
+//!
+//! Spreading the photon's power over the share of its footprint that is seen conserves the power
+//! but not where it lands: at the wall of an evenly lit floor it gives 0.75 of the light, not
+//! 0.5 or 1 (every photon near the wall is brightened by its own share, and the wall's foot sees
+//! only photons on one side). Mirroring the photon across the wall's line gives exactly 1 there:
+//! with the mirror, every photon's kernel is whole on the seen side, as if the floor went on past
+//! the wall with the same light. The mirror photon sits behind the wall (or in the air beyond
+//! the rim), where no gather looks; the part of its footprint on the seen side is exactly the part
+//! of the photon's footprint beyond the line, so the power gathered is the photon's.
+//!
+//! Where the wall is: [`PROBES`] rays in the footprint's plane, in the directions of the centres
+//! of [`SECTORS`] equal sectors of its filter space's unit disc, each from two points:
+//! - just above the surface (the scene's ray offset): it meets a wall standing on the surface,
+//!   the foot of the box, and passes under anything that only overhangs it;
+//! - a depth `h` below it, inside a closed solid: it meets the solid's own faces where the
+//!   surface ends at a convex edge, the rim of the box's top. `h` is how far off its plane a
+//!   gather still sees a photon ([`OFF_PLANE_TOLERANCE`] times the footprint's radius): a
+//!   surface that bends away more slowly still holds the gathers that see the photon.
+//!
+//! A probe stops only at a face steeper than 45 degrees to the photon's plane ([`MAX_COS`]).
+//! Each ray runs to the footprint's boundary in its direction (its direction is the footprint's
+//! radius vector there, so it ends at `t = 1`). The face the nearest stop met (nearest to the
+//! photon across the face's line) gives the line: where its plane meets the photon's plane. In a
+//! corner only the nearer wall is mirrored. Sixteen probes are one Embree packet per photon.
+
+use crate::embree::{self, Ray, PACKET_WIDTH};
+use crate::photons::cover::OFF_PLANE_TOLERANCE;
+use crate::photons::footprint::Footprint;
+use glam::DVec3;
+
+/// Sectors of the footprint probed, each by a ray above and a ray below the surface.
+pub const SECTORS: usize = 8;
+
+/// Rays per photon: one packet.
+pub const PROBES: usize = 2 * SECTORS;
+
+const _: () = assert!(PROBES == PACKET_WIDTH);
+
+/// A probe stops at a face more than 45 degrees off the photon's plane (the cosine of the angle
+/// between their normals below this) and passes any other: at the creases of a tessellated
+/// curved surface, which a probe meets at a grazing angle, the surface continues for the
+/// gathers (they accept points a little off a photon's plane), and so does the floor under the
+/// bottom of a sphere resting on it, which the camera may see through glass.
+const MAX_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
+
+/// The line in a photon's plane where its surface meets a wall or ends: the photon's mirror
+/// image across it stands for the part of its footprint beyond.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Wall {
+    /// Unit normal of the line within the photon's plane, pointing from the photon to the wall.
+    pub normal: DVec3,
+    /// Distance from the photon to the line.
+    pub distance: f64,
+}
+
+impl Wall {
+    /// The mirror image of point `x` (in the photon's plane) across the line.
+    pub fn reflect_point(&self, photon: DVec3, x: DVec3) -> DVec3 {
+        let across = (x - photon).dot(self.normal) - self.distance;
+        x - self.normal * (2.0 * across)
+    }
+
+    /// The mirror image of direction `v`.
+    pub fn reflect_vector(&self, v: DVec3) -> DVec3 {
+        v - self.normal * (2.0 * v.dot(self.normal))
+    }
+
+    /// The mirror photon's footprint: the kernel `K(|M (x - p)|)` mirrored is
+    /// `K(|M R (x - p*)|)` with `R` the reflection, so its filter rows are `R m_k` (`R` is
+    /// symmetric); its area and radius are the photon's.
+    pub fn reflect_footprint(&self, f: &Footprint) -> Footprint {
+        Footprint {
+            m: [self.reflect_vector(f.m[0]), self.reflect_vector(f.m[1])],
+            ..*f
+        }
+    }
+}
+
+/// The wall or edge within the footprint of a photon at `position` on a surface of unit normal
+/// `normal` (see the module's comment), or `None` when the surface goes on to the footprint's
+/// edge all round. `epsilon` is the scene's ray offset: the probes start at least that far off
+/// the surface.
+pub fn nearest_wall(
+    embree: &embree::Scene,
+    position: DVec3,
+    normal: DVec3,
+    footprint: &Footprint,
+    epsilon: f64,
+) -> Option<Wall> {
+    // The radius vectors along the filter matrix's rows: row k is axis_k / s_k.
+    let axes = footprint.m.map(|row| row / row.length_squared());
+    if !(axes[0].is_finite() && axes[1].is_finite()) {
+        return None;
+    }
+    let depth = (OFF_PLANE_TOLERANCE as f64 * footprint.radius).max(epsilon);
+    let mut rays = [Ray::new(DVec3::ZERO, DVec3::X); PROBES];
+    for k in 0..SECTORS {
+        let angle = (k as f64 + 0.5) * std::f64::consts::TAU / SECTORS as f64;
+        let (sin, cos) = angle.sin_cos();
+        let direction = axes[0] * cos + axes[1] * sin;
+        rays[2 * k] = Ray::segment(position + normal * epsilon, direction, 1.0);
+        rays[2 * k + 1] = Ray::segment(position - normal * depth, direction, 1.0);
+    }
+    let mut hits = [None; PROBES];
+    embree.hit_normals16(&rays, false, &mut hits);
+    let mut nearest: Option<Wall> = None;
+    for (ray, hit) in rays.iter().zip(&hits) {
+        let Some((t, face)) = *hit else { continue };
+        if face.dot(normal).abs() >= MAX_COS || t > 1.0 {
+            continue;
+        }
+        // The face's line in the photon's plane, its normal turned towards the photon's probe.
+        let mut line = (face - normal * face.dot(normal)).normalize();
+        if line.dot(ray.direction) < 0.0 {
+            line = -line;
+        }
+        let distance = (ray.direction * t).dot(line);
+        if nearest.is_none_or(|w| distance < w.distance) {
+            nearest = Some(Wall {
+                normal: line,
+                distance,
+            });
+        }
+    }
+    nearest
+}

@@ -1,0 +1,321 @@
+//! Footprints at walls and edges (`photons::walls`): the wall found at its distance at the foot
+//! of a wall and at a convex edge, the nearer beside a corner, none in the open, under an
+//! overhang or over a gentle crease; the mirror photon's kernel the photon's mirrored; and the
+//! estimate at the foot of a wall against a point light's analytic irradiance, which without
+//! the probes is far too dark.
+
+use glam::DVec3;
+use photondiff::embree::Device;
+use photondiff::estimate::{
+    GatherCounts, GatherQuery, PhotonDifferentialEstimate, RadianceEstimator,
+};
+use photondiff::photons::emission::Emitter;
+use photondiff::photons::footprint::Footprint;
+use photondiff::photons::map::{PathClass, PhotonMap};
+use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+use photondiff::photons::walls::{nearest_wall, Wall};
+use photondiff::scene::file::parse_scene;
+use photondiff::scene::Scene;
+use std::f64::consts::PI;
+use std::path::Path;
+
+const HEADER: &str = r#"
+[camera]
+eye = [0.0, 5.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 40.0
+width = 16
+height = 16
+
+[materials.white]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[[lights]]
+type = "point"
+position = [0.0, 2.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+
+# The floor, y = 0.
+[[shapes]]
+type = "quad"
+corner = [-5.0, 0.0, 5.0]
+edge_u = [10.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -10.0]
+material = "white"
+"#;
+
+/// A wall standing on the floor at x = 1 (facing the light), 2 high.
+const WALL: &str = r#"
+[[shapes]]
+type = "quad"
+corner = [1.0, 0.0, 5.0]
+edge_u = [0.0, 0.0, -10.0]
+edge_v = [0.0, 2.0, 0.0]
+material = "white"
+"#;
+
+/// The over-an-edge stress scene's kind of box, [1, 3] x [0, 0.5] x [-2, 2]: its top and four
+/// sides (it stands on the floor).
+const BOX: &str = r#"
+[[shapes]]
+type = "quad"
+corner = [1.0, 0.5, 2.0]
+edge_u = [2.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -4.0]
+material = "white"
+
+[[shapes]]
+type = "quad"
+corner = [1.0, 0.0, 2.0]
+edge_u = [0.0, 0.0, -4.0]
+edge_v = [0.0, 0.5, 0.0]
+material = "white"
+
+[[shapes]]
+type = "quad"
+corner = [3.0, 0.0, 2.0]
+edge_u = [0.0, 0.0, -4.0]
+edge_v = [0.0, 0.5, 0.0]
+material = "white"
+
+[[shapes]]
+type = "quad"
+corner = [1.0, 0.0, 2.0]
+edge_u = [2.0, 0.0, 0.0]
+edge_v = [0.0, 0.5, 0.0]
+material = "white"
+
+[[shapes]]
+type = "quad"
+corner = [1.0, 0.0, -2.0]
+edge_u = [2.0, 0.0, 0.0]
+edge_v = [0.0, 0.5, 0.0]
+material = "white"
+"#;
+
+fn scene_of(parts: &[&str]) -> Scene {
+    parse_scene(&parts.concat(), Path::new(".")).unwrap()
+}
+
+/// A round footprint of radius `r` on the floor, its filter axes along x and z.
+fn round(r: f64) -> Footprint {
+    Footprint {
+        m: [DVec3::X / r, DVec3::Z / r],
+        area: r * r,
+        radius: r,
+    }
+}
+
+fn wall_near(scene: &Scene, at: DVec3, normal: DVec3, r: f64) -> Option<Wall> {
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    nearest_wall(&embree, at, normal, &round(r), scene.ray_epsilon())
+}
+
+fn assert_wall(wall: Option<Wall>, normal: DVec3, distance: f64, what: &str) {
+    let wall = wall.unwrap_or_else(|| panic!("{what}: no wall found"));
+    assert!(
+        (wall.normal - normal).length() < 1e-9 && (wall.distance - distance).abs() < 1e-6,
+        "{what}: {wall:?}, expected {normal} at {distance}"
+    );
+}
+
+#[test]
+fn a_photon_in_the_open_has_no_wall() {
+    let scene = scene_of(&[HEADER]);
+    for r in [0.01, 0.5, 2.0] {
+        assert_eq!(
+            wall_near(&scene, DVec3::new(0.3, 0.0, -0.2), DVec3::Y, r),
+            None
+        );
+    }
+}
+
+#[test]
+fn a_wall_is_found_at_its_distance_and_mirrors_the_photon_and_its_footprint() {
+    let scene = scene_of(&[HEADER, WALL]);
+    let r = 0.4;
+    for d in [0.01, 0.1, 0.2, 0.3, 0.35] {
+        let at = DVec3::new(1.0 - d, 0.0, 0.0);
+        assert_wall(wall_near(&scene, at, DVec3::Y, r), DVec3::X, d, "wall");
+        // The photon's normal may face either way: the probes go to both sides.
+        assert_wall(wall_near(&scene, at, -DVec3::Y, r), DVec3::X, d, "flipped");
+    }
+    // Beyond its reach the wall is not seen.
+    assert_eq!(
+        wall_near(&scene, DVec3::new(0.5, 0.0, 0.0), DVec3::Y, r),
+        None
+    );
+    // The mirror: across x = 1, with its footprint's rows mirrored, its kernel the photon's
+    // kernel mirrored.
+    let at = DVec3::new(0.8, 0.0, 0.1);
+    let wall = wall_near(&scene, at, DVec3::Y, r).unwrap();
+    let mirror = wall.reflect_point(at, at);
+    assert!(
+        (mirror - DVec3::new(1.2, 0.0, 0.1)).length() < 1e-6,
+        "{mirror}"
+    );
+    let f = Footprint {
+        m: [DVec3::new(2.0, 0.0, 1.0), DVec3::new(-0.5, 0.0, 3.0)],
+        area: 1.0 / 6.5,
+        radius: 0.6,
+    };
+    let g = wall.reflect_footprint(&f);
+    for x in [DVec3::new(1.1, 0.0, 0.3), DVec3::new(0.9, 0.0, -0.2)] {
+        let seen = |m: [DVec3; 2], v: DVec3| (m[0].dot(v), m[1].dot(v));
+        let (a, b) = seen(f.m, x - at);
+        let (c, d) = seen(g.m, wall.reflect_point(at, x) - mirror);
+        assert!((a - c).abs() < 1e-9 && (b - d).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn a_convex_edge_and_the_foot_of_a_box_are_walls() {
+    let scene = scene_of(&[HEADER, BOX]);
+    let r = 0.4;
+    for d in [0.01, 0.1, 0.2, 0.3] {
+        // On the top, d inside its rim at x = 1: the probes below the top meet the box's side
+        // from inside; the footprint's part beyond the rim is in the air.
+        let top = DVec3::new(1.0 + d, 0.5, 0.0);
+        assert_wall(wall_near(&scene, top, DVec3::Y, r), -DVec3::X, d, "top");
+        // On the floor, d from the box's side.
+        let foot = DVec3::new(1.0 - d, 0.0, 0.0);
+        assert_wall(wall_near(&scene, foot, DVec3::Y, r), DVec3::X, d, "foot");
+    }
+    // Beside the corner of the box's foot the nearer side is mirrored.
+    let corner = DVec3::new(0.9, 0.0, 2.05);
+    assert_wall(
+        wall_near(&scene, corner, DVec3::Y, r),
+        -DVec3::Z,
+        0.05,
+        "corner",
+    );
+}
+
+#[test]
+fn overhangs_and_gentle_creases_are_not_walls() {
+    let overhang = r#"
+[materials.glass]
+type = "glass"
+ior = 1.5
+
+# A sphere resting on the floor: the floor under its bottom is seen through it.
+[[shapes]]
+type = "sphere"
+center = [0.0, 1.0, 0.0]
+radius = 1.0
+material = "glass"
+
+# A slab hovering above the floor.
+[[shapes]]
+type = "quad"
+corner = [2.0, 0.05, 1.0]
+edge_u = [2.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -2.0]
+material = "white"
+"#;
+    let scene = scene_of(&[HEADER, overhang]);
+    for at in [
+        DVec3::new(0.1, 0.0, 0.0),
+        DVec3::new(0.0, 0.0, 0.05),
+        DVec3::new(2.5, 0.0, 0.0),
+        DVec3::new(1.8, 0.0, 0.0),
+    ] {
+        assert_eq!(wall_near(&scene, at, DVec3::Y, 0.4), None, "at {at}");
+    }
+    // The floor bends up by 10 degrees at x = 0: gathers on the ramp still see the photon.
+    let t = 10f64.to_radians();
+    let ramp = format!(
+        r#"
+[[shapes]]
+type = "quad"
+corner = [0.0, 0.0, 5.0]
+edge_u = [{}, {}, 0.0]
+edge_v = [0.0, 0.0, -10.0]
+material = "white"
+"#,
+        3.0 * t.cos(),
+        3.0 * t.sin()
+    );
+    let floor_left = HEADER.replace("edge_u = [10.0, 0.0, 0.0]", "edge_u = [5.0, 0.0, 0.0]");
+    let scene = scene_of(&[&floor_left, &ramp]);
+    assert_eq!(
+        wall_near(&scene, DVec3::new(-0.1, 0.0, 0.0), DVec3::Y, 0.4),
+        None
+    );
+}
+
+/// The direct-light photon map of the floor beside the wall: 400,000 emissions at overlap 128
+/// give footprints about 0.07 in radius at the wall.
+fn wall_map(probe_walls: bool) -> (PhotonMap, u64) {
+    let scene = scene_of(&[HEADER, WALL]);
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let options = PhotonOptions {
+        global_photons: 400_000,
+        overlap: 128.0,
+        probe_walls,
+        ..PhotonOptions::default()
+    };
+    let tracer = PhotonTracer::new(&scene, &embree, &options);
+    let emitter = Emitter::global(&scene, options.global_photons, options.overlap, 1);
+    let (map, counts) = tracer.build_map(
+        &emitter,
+        PathClass::Direct,
+        StopRule::Emitted(options.global_photons),
+        &indicatif::ProgressBar::hidden(),
+    );
+    (map, counts.stored)
+}
+
+/// The mean of the photon estimate along a row of floor points `d` from the foot of the wall,
+/// over the analytic irradiance there.
+fn at_the_wall(map: &PhotonMap, d: f64) -> f64 {
+    let estimate = PhotonDifferentialEstimate { map };
+    let mut gathers = GatherCounts::default();
+    let points = 41;
+    let mut sum = 0.0;
+    for k in 0..points {
+        let x = DVec3::new(1.0 - d, 0.0, -0.5 + k as f64 / (points - 1) as f64);
+        let d2 = x.length_squared() + 4.0;
+        let analytic = 10.0 * (2.0 / d2.sqrt()) / d2;
+        // Albedo pi turns the reflected radiance (albedo / pi) E into the irradiance E.
+        let query = GatherQuery {
+            position: x,
+            normal: DVec3::Y,
+            albedo: DVec3::splat(PI),
+            footprint: [DVec3::ZERO; 2],
+            exact: None,
+        };
+        sum += estimate.radiance(&query, &mut gathers).x / analytic;
+    }
+    sum / points as f64
+}
+
+#[test]
+fn the_estimate_at_the_foot_of_a_wall_matches_the_light_and_mirrors_add_no_power() {
+    let ((with, stored), (without, stored_without)) = (wall_map(true), wall_map(false));
+    // Within a footprint's radius of the wall: before, the band was dark, down to half at the
+    // wall (the mirror is exact there for even light; the light's slope is what is left).
+    for d in [0.005, 0.02] {
+        let (w, wo) = (at_the_wall(&with, d), at_the_wall(&without, d));
+        assert!((w - 1.0).abs() < 0.03, "d {d}: with the probes x{w}");
+        assert!(wo < 0.85, "d {d}: without the probes x{wo}");
+    }
+    // Away from the wall nothing changes (but the order in which the photons are summed).
+    let (w, wo) = (at_the_wall(&with, 0.5), at_the_wall(&without, 0.5));
+    assert!((w - wo).abs() < 1e-6, "{w} vs {wo}");
+    // The same photons, and a mirror for each photon near the wall (and the floor's far edges)
+    // that carries no power of its own in the statistics.
+    assert_eq!(stored, stored_without);
+    let mirrors = with.guards.mirrored;
+    assert!(
+        mirrors > 1000 && with.len() as u64 == stored + mirrors,
+        "{mirrors}"
+    );
+    assert_eq!(without.guards.mirrored, 0);
+    let (a, b) = (with.total_power(), without.total_power());
+    assert!(((a - b) / b).abs().max_element() < 1e-9, "{a} vs {b}");
+}
