@@ -95,19 +95,31 @@ fn same(a: &Option<Hit>, b: &Option<Hit>) -> bool {
 }
 
 #[test]
-fn packets_agree_with_single_rays() {
+fn packets_agree_with_single_rays_and_probes_with_hits() {
     let scene = scene();
     let rays = random_rays(16 * 40 + 5, 3);
     let mut hits = [None; 16];
     let mut blocked = [false; 16];
+    let mut normals = [None; 16];
     let mut n_hits = 0;
     for (k, chunk) in rays.chunks(16).enumerate() {
         scene.intersect16(chunk, k % 2 == 0, &mut hits);
         scene.occluded16(chunk, k % 2 == 1, &mut blocked);
+        scene.hit_normals16(chunk, k % 2 == 0, &mut normals);
         for (lane, ray) in chunk.iter().enumerate() {
             let single = scene.intersect(ray);
             assert!(same(&single, &hits[lane]), "ray {ray:?}");
             assert_eq!(scene.occluded(ray), blocked[lane]);
+            // The probes' answer: the same geometric normal exactly, and the distance Embree's
+            // (single precision; a completed hit refines it in double).
+            match (&single, normals[lane]) {
+                (None, None) => {}
+                (Some(h), Some((t, n))) => {
+                    assert_eq!(n, h.geometric_normal, "ray {ray:?}");
+                    assert!((t - h.t).abs() <= 1e-6 * h.t, "ray {ray:?}: {t} vs {}", h.t);
+                }
+                (a, b) => panic!("ray {ray:?}: {a:?} vs {b:?}"),
+            }
             n_hits += usize::from(single.is_some());
         }
     }

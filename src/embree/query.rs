@@ -31,6 +31,18 @@ impl Valid16 {
     }
 }
 
+/// One lane's answer in a traced packet, with its triangle's world-space vertices (and vertex
+/// normals, where the mesh has them).
+struct LaneHit {
+    /// Top-level geometry id (the instance's, for an instanced mesh).
+    id: u32,
+    prim: u32,
+    u: f32,
+    v: f32,
+    tfar: f32,
+    vertices: ([DVec3; 3], Option<[DVec3; 3]>),
+}
+
 /// Writes a single ray's answer into lane `lane` of a packet.
 fn store_lane(packet: &mut ffi::RTCRayHit16, lane: usize, rayhit: &ffi::RTCRayHit) {
     let (p, h) = (&mut packet.hit, &rayhit.hit);
@@ -137,27 +149,12 @@ impl Scene {
     /// `hits[i]` answers `rays[i]`; invalid rays are answered `None` and counted.
     pub fn intersect16(&self, rays: &[Ray], coherent: bool, hits: &mut [Option<Hit>]) {
         assert!(rays.len() <= PACKET_WIDTH && hits.len() >= rays.len());
-        let (mut packet, mut valid) = (RayHit16::default(), Valid16::default());
-        self.trace16(rays, coherent, &mut packet, &mut valid);
-        let (r, h) = (&packet.0.ray, &packet.0.hit);
-        let hit_lanes = || {
-            (0..rays.len()).filter(|&l| valid.0[l] != 0 && h.geomID[l] != ffi::INVALID_GEOMETRY_ID)
-        };
-        let mut ids = [0u32; PACKET_WIDTH];
-        let mut vertices = [([DVec3::ZERO; 3], None); PACKET_WIDTH];
-        self.hit_triangles16(h, hit_lanes(), &mut ids, &mut vertices);
         hits[..rays.len()].fill(None);
-        for l in hit_lanes() {
+        self.for_each_hit16(rays, coherent, |l, x| {
             hits[l] = Some(complete_hit(
-                &rays[l],
-                ids[l],
-                h.primID[l],
-                h.u[l],
-                h.v[l],
-                r.tfar[l],
-                vertices[l],
+                &rays[l], x.id, x.prim, x.u, x.v, x.tfar, x.vertices,
             ));
-        }
+        });
     }
 
     /// The distance to the closest hit and its unit geometric normal (world space,
@@ -167,6 +164,18 @@ impl Scene {
     /// derivatives): for probes that need only how far a ray got and what it met.
     pub fn hit_normals16(&self, rays: &[Ray], coherent: bool, out: &mut [Option<(f64, DVec3)>]) {
         assert!(rays.len() <= PACKET_WIDTH && out.len() >= rays.len());
+        out[..rays.len()].fill(None);
+        self.for_each_hit16(rays, coherent, |l, x| {
+            let [p0, p1, p2] = x.vertices.0;
+            out[l] = Some((f64::from(x.tfar), (p1 - p0).cross(p2 - p0).normalize()));
+        });
+    }
+
+    /// Traces up to 16 rays as one packet and calls `visit` with each lane that hit and its
+    /// answer. The hit triangles' indices, then their vertices, are read for every lane before
+    /// the next step: on a large mesh each read is a cache miss, and one lane at a time they
+    /// would wait in turn; so the lanes' misses overlap.
+    fn for_each_hit16(&self, rays: &[Ray], coherent: bool, mut visit: impl FnMut(usize, LaneHit)) {
         let (mut packet, mut valid) = (RayHit16::default(), Valid16::default());
         self.trace16(rays, coherent, &mut packet, &mut valid);
         let (r, h) = (&packet.0.ray, &packet.0.hit);
@@ -174,34 +183,25 @@ impl Scene {
             (0..rays.len()).filter(|&l| valid.0[l] != 0 && h.geomID[l] != ffi::INVALID_GEOMETRY_ID)
         };
         let mut ids = [0u32; PACKET_WIDTH];
-        let mut vertices = [([DVec3::ZERO; 3], None); PACKET_WIDTH];
-        self.hit_triangles16(h, hit_lanes(), &mut ids, &mut vertices);
-        out[..rays.len()].fill(None);
-        for l in hit_lanes() {
-            let [p0, p1, p2] = vertices[l].0;
-            out[l] = Some((f64::from(r.tfar[l]), (p1 - p0).cross(p2 - p0).normalize()));
-        }
-    }
-
-    /// The top-level ids and world-space vertices (with vertex normals, where the mesh has them)
-    /// of the triangles hit in `lanes` of a packet's answer, into `ids` and `vertices`.
-    /// They are read for every lane before the next step: on a large mesh each read (the
-    /// triangle's indices, then its vertices) is a cache miss, and one lane at a time they
-    /// would wait in turn; so the lanes' misses overlap.
-    fn hit_triangles16(
-        &self,
-        h: &ffi::RTCHit16,
-        lanes: impl Iterator<Item = usize> + Clone,
-        ids: &mut [u32; PACKET_WIDTH],
-        vertices: &mut [([DVec3; 3], Option<[DVec3; 3]>); PACKET_WIDTH],
-    ) {
         let mut triangles = [[0u32; 3]; PACKET_WIDTH];
-        for l in lanes.clone() {
+        for l in hit_lanes() {
             ids[l] = top_level(h.geomID[l], h.instID[0][l]);
             triangles[l] = self.geometries[ids[l] as usize].triangle(h.primID[l]);
         }
-        for l in lanes {
+        let mut vertices = [([DVec3::ZERO; 3], None); PACKET_WIDTH];
+        for l in hit_lanes() {
             vertices[l] = self.geometries[ids[l] as usize].world_vertices(triangles[l]);
+        }
+        for l in hit_lanes() {
+            let answer = LaneHit {
+                id: ids[l],
+                prim: h.primID[l],
+                u: h.u[l],
+                v: h.v[l],
+                tfar: r.tfar[l],
+                vertices: vertices[l],
+            };
+            visit(l, answer);
         }
     }
 

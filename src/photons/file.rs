@@ -20,8 +20,9 @@
 //! then `n` photons of 20 f32 each: position, normal, direction, power (3 each), the filter
 //! matrix rows `m[0]`, `m[1]` (3 each), `inv_area`, `radius`. The settings are the photon
 //! options as the command line spells them (`--photons`, `--caustic-photons`, `--overlap`,
-//! `--seed`, `--global-aim`, `--probe-walls`) plus the fixed ones, every value as its exact decimal text. Kd-trees are not
-//! stored: they are rebuilt on loading (see `benches/photon_file.rs` for the cost).
+//! `--seed`, `--global-aim`, `--probe-walls`) plus the fixed ones, every value as its exact
+//! decimal text. Kd-trees are not stored: they are rebuilt on loading (see
+//! `benches/photon_file.rs` for the cost).
 
 use super::footprint::Guards;
 use super::map::{PathClass, Photon, PhotonMap};
