@@ -249,8 +249,12 @@ material = "white"
 
 /// The direct-light photon map of the floor beside the wall: 400,000 emissions at overlap 128
 /// give footprints about 0.07 in radius at the wall.
-fn wall_map(probe_walls: bool) -> (PhotonMap, u64) {
-    let scene = scene_of(&[HEADER, WALL]);
+fn wall_map(light: DVec3, probe_walls: bool) -> (PhotonMap, u64) {
+    let header = HEADER.replace(
+        "position = [0.0, 2.0, 0.0]",
+        &format!("position = [{}, {}, {}]", light.x, light.y, light.z),
+    );
+    let scene = scene_of(&[&header, WALL]);
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let options = PhotonOptions {
@@ -272,15 +276,15 @@ fn wall_map(probe_walls: bool) -> (PhotonMap, u64) {
 
 /// The mean of the photon estimate along a row of floor points `d` from the foot of the wall,
 /// over the analytic irradiance there.
-fn at_the_wall(map: &PhotonMap, d: f64) -> f64 {
+fn at_the_wall(map: &PhotonMap, light: DVec3, d: f64) -> f64 {
     let estimate = PhotonDifferentialEstimate { map };
     let mut gathers = GatherCounts::default();
     let points = 41;
     let mut sum = 0.0;
     for k in 0..points {
         let x = DVec3::new(1.0 - d, 0.0, -0.5 + k as f64 / (points - 1) as f64);
-        let d2 = x.length_squared() + 4.0;
-        let analytic = 10.0 * (2.0 / d2.sqrt()) / d2;
+        let d2 = (x - light).length_squared();
+        let analytic = 10.0 * (light.y / d2.sqrt()) / d2;
         // Albedo pi turns the reflected radiance (albedo / pi) E into the irradiance E.
         let query = GatherQuery {
             position: x,
@@ -296,16 +300,24 @@ fn at_the_wall(map: &PhotonMap, d: f64) -> f64 {
 
 #[test]
 fn the_estimate_at_the_foot_of_a_wall_matches_the_light_and_mirrors_add_no_power() {
-    let ((with, stored), (without, stored_without)) = (wall_map(true), wall_map(false));
+    let light = DVec3::new(0.0, 2.0, 0.0);
+    let ((with, stored), (without, stored_without)) =
+        (wall_map(light, true), wall_map(light, false));
     // Within a footprint's radius of the wall: before, the band was dark, down to half at the
     // wall (the mirror is exact there for even light; the light's slope is what is left).
     for d in [0.005, 0.02] {
-        let (w, wo) = (at_the_wall(&with, d), at_the_wall(&without, d));
+        let (w, wo) = (
+            at_the_wall(&with, light, d),
+            at_the_wall(&without, light, d),
+        );
         assert!((w - 1.0).abs() < 0.03, "d {d}: with the probes x{w}");
         assert!(wo < 0.85, "d {d}: without the probes x{wo}");
     }
     // Away from the wall nothing changes (but the order in which the photons are summed).
-    let (w, wo) = (at_the_wall(&with, 0.5), at_the_wall(&without, 0.5));
+    let (w, wo) = (
+        at_the_wall(&with, light, 0.5),
+        at_the_wall(&without, light, 0.5),
+    );
     assert!((w - wo).abs() < 1e-6, "{w} vs {wo}");
     // The same photons, and a mirror for each photon near the wall (and the floor's far edges)
     // that carries no power of its own in the statistics.
@@ -318,4 +330,21 @@ fn the_estimate_at_the_foot_of_a_wall_matches_the_light_and_mirrors_add_no_power
     assert_eq!(without.guards.mirrored, 0);
     let (a, b) = (with.total_power(), without.total_power());
     assert!(((a - b) / b).abs().max_element() < 1e-9, "{a} vs {b}");
+}
+
+#[test]
+fn light_that_falls_towards_a_wall_is_right_at_its_foot() {
+    // A light low over the floor beside the wall: the irradiance falls by a factor of about
+    // three from below the light to the wall, and the footprints are about 0.02 in radius. The
+    // mirrors stand for light as it is across the wall; the slope over a footprint is a few
+    // percent here.
+    let light = DVec3::new(0.7, 0.3, 0.0);
+    let (with, _) = wall_map(light, true);
+    let (without, _) = wall_map(light, false);
+    let (w, wo) = (
+        at_the_wall(&with, light, 0.005),
+        at_the_wall(&without, light, 0.005),
+    );
+    assert!((w - 1.0).abs() < 0.02, "with the probes x{w}");
+    assert!(wo < 0.8, "without the probes x{wo}");
 }
