@@ -32,8 +32,12 @@
 //! A probe stops only at a face steeper than 45 degrees to the photon's plane ([`MAX_COS`]).
 //! Each ray runs to the footprint's boundary in its direction (its direction is the footprint's
 //! radius vector there, so it ends at `t = 1`). The face the nearest stop met (nearest to the
-//! photon across the face's line) gives the line: where its plane meets the photon's plane. In a
-//! corner only the nearer wall is mirrored. Sixteen probes are one Embree packet per photon.
+//! photon across the face's line) gives the line: where its plane meets the photon's plane. A
+//! ray from that probe's origin straight to where the mirror would go must meet the wall too:
+//! beside a box's outer corner a face's line runs on past the face, and the mirror would land
+//! on open floor. If it does not, the next nearest line is tried (of [`CHECKED`]), else the
+//! photon is not mirrored. In a corner only the nearer wall is mirrored. Sixteen probes are one
+//! Embree packet per photon, the checks one more call for the few that stop.
 
 use crate::embree::{self, Ray, PACKET_WIDTH};
 use crate::photons::cover::OFF_PLANE_TOLERANCE;
@@ -47,6 +51,9 @@ pub const SECTORS: usize = 8;
 pub const PROBES: usize = 2 * SECTORS;
 
 const _: () = assert!(PROBES == PACKET_WIDTH);
+
+/// Walls of different lines checked for a photon, nearest first (see [`nearest_wall`]).
+const CHECKED: usize = 3;
 
 /// A probe stops at a face more than 45 degrees off the photon's plane (the cosine of the angle
 /// between their normals below this) and passes any other: at the creases of a tessellated
@@ -115,24 +122,57 @@ pub fn nearest_wall(
     }
     let mut hits = [None; PROBES];
     embree.hit_normals16(&rays, false, &mut hits);
-    let mut nearest: Option<Wall> = None;
-    for (ray, hit) in rays.iter().zip(&hits) {
-        let Some((t, face)) = *hit else { continue };
-        if face.dot(normal).abs() >= MAX_COS || t > 1.0 {
-            continue;
-        }
-        // The face's line in the photon's plane, its normal turned towards the photon's probe.
-        let mut line = (face - normal * face.dot(normal)).normalize();
-        if line.dot(ray.direction) < 0.0 {
-            line = -line;
-        }
-        let distance = (ray.direction * t).dot(line);
-        if nearest.is_none_or(|w| distance < w.distance) {
-            nearest = Some(Wall {
+    let stops = |ray: &Ray, hit: Option<(f64, DVec3)>| {
+        hit.filter(|&(t, face)| face.dot(normal).abs() < MAX_COS && t <= 1.0)
+            .map(|(t, face)| (ray.origin, ray.direction * t, face))
+    };
+    // Each stop's wall, nearest first: the face's line in the photon's plane, its normal
+    // turned towards the photon's probe; with the probe's origin (above or below).
+    let mut walls: Vec<(Wall, DVec3)> = rays
+        .iter()
+        .zip(hits)
+        .filter_map(|(ray, hit)| stops(ray, hit))
+        .map(|(origin, reach, face)| {
+            let mut line = (face - normal * face.dot(normal)).normalize();
+            if line.dot(reach) < 0.0 {
+                line = -line;
+            }
+            let wall = Wall {
                 normal: line,
-                distance,
-            });
+                distance: reach.dot(line),
+            };
+            (wall, origin)
+        })
+        .collect();
+    walls.sort_by(|a, b| a.0.distance.total_cmp(&b.0.distance));
+    // The nearest few walls of different lines, each checked by a ray from its probe's
+    // origin straight to where the mirror would be: the wall must stand in its way. Beside a
+    // box's outer corner the line of a face runs on past the face, and a mirror across it
+    // would land on open floor, brightening it.
+    let mut candidates: Vec<(Wall, DVec3)> = Vec::with_capacity(CHECKED);
+    for &(wall, origin) in &walls {
+        if candidates.len() == CHECKED {
+            break;
+        }
+        if candidates
+            .iter()
+            .all(|(w, _)| w.normal.dot(wall.normal) < 0.99)
+        {
+            candidates.push((wall, origin));
         }
     }
-    nearest
+    if candidates.is_empty() {
+        return None;
+    }
+    let checks: Vec<Ray> = candidates
+        .iter()
+        .map(|(w, origin)| Ray::segment(*origin, w.normal * (2.0 * w.distance), 1.0))
+        .collect();
+    let mut answers = [None; PROBES];
+    embree.hit_normals16(&checks, false, &mut answers);
+    candidates
+        .iter()
+        .zip(checks.iter().zip(answers))
+        .find(|(_, (ray, hit))| stops(ray, *hit).is_some())
+        .map(|((wall, _), _)| *wall)
 }
