@@ -103,11 +103,18 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     });
     create_parent(&args.output)?;
     file::write(&args.output, &maps, &counts, hash, &options)?;
+    // Stored photons, as the statistics count them; mirror photons at walls apart.
+    let mirrors = maps.caustic.guards.mirrored + maps.global.guards.mirrored;
     println!(
-        "wrote {}: {} caustic and {} global photons",
+        "wrote {}: {} caustic and {} global photons{}",
         args.output.display(),
-        maps.caustic.len(),
-        maps.global.len()
+        counts[0].stored,
+        counts[1].stored,
+        if mirrors > 0 {
+            format!(" (and {mirrors} mirror photons at walls and edges)")
+        } else {
+            String::new()
+        }
     );
     Ok(())
 }
