@@ -58,7 +58,8 @@ pub struct PhotonOptions {
     /// map viewed directly. Default false.
     pub radiance_map: bool,
     /// Whether each photon's footprint is probed for walls and edges, and a mirror photon added
-    /// beyond the nearest ([`crate::photons::walls`]; one packet of 16 rays a photon). Default false (the thesis's photon maps); the default render uses
+    /// beyond the nearest ([`crate::photons::walls`]; one packet of 16 rays a photon). Default
+    /// false (the thesis's photon maps); the default render uses
     /// [`crate::render::passes::DEFAULT_PROBE_WALLS`].
     pub probe_walls: bool,
 }
