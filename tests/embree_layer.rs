@@ -301,3 +301,71 @@ fn exactly_one_embree_library_is_loaded() {
     assert_eq!(embrees.len(), 1, "{embrees:?}");
     assert!(embrees[0].starts_with(&expected), "{embrees:?}");
 }
+
+#[test]
+fn geometry_bounds_hold_every_vertex_and_find_flat_geometries() {
+    use glam::{DAffine3, DQuat};
+    use std::sync::Arc;
+    let device = Device::new().unwrap();
+    let mut builder = SceneBuilder::new(&device);
+    let square = Arc::new(shapes::quad(
+        DVec3::new(-1.0, -1.0, 0.0),
+        DVec3::new(2.0, 0.0, 0.0),
+        DVec3::new(0.0, 2.0, 0.0),
+    ));
+    let ball = Arc::new(shapes::sphere(DVec3::new(0.0, 0.0, 3.0), 1.0, 64));
+    builder.add_mesh(square.clone()).unwrap();
+    builder.add_mesh(ball.clone()).unwrap();
+    // Both again through a rotation, a non-uniform scale and a translation.
+    let placed = DAffine3::from_scale_rotation_translation(
+        DVec3::new(2.0, 0.5, 1.5),
+        DQuat::from_euler(glam::EulerRot::XYZ, 0.3, -0.7, 1.1),
+        DVec3::new(4.0, -2.0, 1.0),
+    );
+    builder.add_instance(&square, placed).unwrap();
+    builder.add_instance(&ball, placed).unwrap();
+    let scene = builder.commit().unwrap();
+    let bounds = scene.geometry_bounds();
+    assert_eq!(bounds.len(), 4);
+    let wide = |v: &[f32; 3]| DVec3::new(v[0].into(), v[1].into(), v[2].into());
+    let meshes = [
+        (&square, None),
+        (&ball, None),
+        (&square, Some(placed)),
+        (&ball, Some(placed)),
+    ];
+    for (k, ((mesh, to_world), b)) in meshes.iter().zip(&bounds).enumerate() {
+        let world: Vec<DVec3> = mesh
+            .positions
+            .iter()
+            .map(|v| to_world.map_or(wide(v), |t| t.transform_point3(wide(v))))
+            .collect();
+        let farthest = world
+            .iter()
+            .map(|v| v.distance(b.center))
+            .fold(0.0, f64::max);
+        assert!(
+            farthest <= b.radius,
+            "geometry {k}: a vertex at {farthest} > {}",
+            b.radius
+        );
+        match b.plane_normal {
+            Some(n) => {
+                assert!(k % 2 == 0, "geometry {k}: a sphere is not flat");
+                assert!((n.length() - 1.0).abs() < 1e-12);
+                for v in &world {
+                    assert!(
+                        n.dot(*v - world[0]).abs() < 1e-5,
+                        "geometry {k}: off its plane"
+                    );
+                }
+            }
+            None => assert!(k % 2 == 1, "geometry {k}: the square is flat"),
+        }
+    }
+    // Directly placed, the bounds are tight: the square's half diagonal, the sphere's radius.
+    assert!((bounds[0].radius - 2f64.sqrt()).abs() < 1e-6);
+    assert!((bounds[0].plane_normal.unwrap().z.abs() - 1.0).abs() < 1e-12);
+    assert!(bounds[1].center.distance(DVec3::new(0.0, 0.0, 3.0)) < 1e-6);
+    assert!((bounds[1].radius - 1.0).abs() < 1e-6);
+}

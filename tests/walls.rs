@@ -13,7 +13,7 @@ use photondiff::photons::emission::Emitter;
 use photondiff::photons::footprint::Footprint;
 use photondiff::photons::map::{PathClass, PhotonMap};
 use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
-use photondiff::photons::walls::{nearest_wall, Wall};
+use photondiff::photons::walls::{nearest_wall, Wall, Walls};
 use photondiff::scene::file::parse_scene;
 use photondiff::scene::Scene;
 use std::f64::consts::PI;
@@ -108,10 +108,57 @@ fn round(r: f64) -> Footprint {
     }
 }
 
+/// The wall near `at`, probed; the screen of [`Walls`] must give the same answer (it skips
+/// only the probes that could not stop).
 fn wall_near(scene: &Scene, at: DVec3, normal: DVec3, r: f64) -> Option<Wall> {
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
-    nearest_wall(&embree, at, normal, &round(r), scene.ray_epsilon())
+    let probed = nearest_wall(&embree, at, normal, &round(r), scene.ray_epsilon());
+    let screened = Walls::new(&embree).nearest(at, normal, &round(r), scene.ray_epsilon());
+    assert_eq!(probed, screened, "at {at}, radius {r}");
+    probed
+}
+
+/// Whether the screen of [`Walls`] probes a photon at `at` on the floor.
+fn screened_in(scene: &Scene, at: DVec3, r: f64) -> bool {
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    Walls::new(&embree).may_stop(at, DVec3::Y, &round(r), scene.ray_epsilon())
+}
+
+#[test]
+fn the_screen_probes_only_near_geometry_that_could_be_a_wall() {
+    // The floor alone is flat and level with the photon: never a wall.
+    assert!(!screened_in(
+        &scene_of(&[HEADER]),
+        DVec3::new(0.3, 0.0, -0.2),
+        2.0
+    ));
+    // The canonical scene's sphere resting on the floor (centre (0, 1, 0), radius 1): photons
+    // in the caustic, about 1.4 from where it touches the floor, are not probed; one under it is.
+    let sphere = r#"
+[[shapes]]
+type = "sphere"
+center = [0.0, 1.0, 0.0]
+radius = 1.0
+material = "white"
+"#;
+    let scene = scene_of(&[HEADER, sphere]);
+    assert!(!screened_in(&scene, DVec3::new(1.3, 0.0, 0.3), 0.05));
+    assert!(screened_in(&scene, DVec3::new(0.2, 0.0, 0.0), 0.05));
+    // The reach counts: 0.05 from a sphere's bound the photon is probed when its footprint
+    // is wider than that, not when it is narrower. (The sphere's bound: distance 1 + 0.05
+    // from its centre, on the floor.)
+    let x = ((1.05f64).powi(2) - 1.0).sqrt();
+    assert!(!screened_in(&scene, DVec3::new(x, 0.0, 0.0), 0.02));
+    assert!(screened_in(&scene, DVec3::new(x, 0.0, 0.0), 0.08));
+    // A wall standing on the floor is steep: probed within reach, not beyond.
+    let scene = scene_of(&[HEADER, WALL]);
+    assert!(screened_in(&scene, DVec3::new(0.5, 0.0, 0.0), 0.4));
+    // (The wall's bound is the sphere through its corners, centre (1, 1, 0), radius sqrt(26);
+    // from (-4.5, 0, 0) its surface is 0.49 away, beyond the reach of a footprint of 0.1.)
+    assert!(!screened_in(&scene, DVec3::new(-4.5, 0.0, 0.0), 0.1));
+    assert!(screened_in(&scene, DVec3::new(-4.5, 0.0, 0.0), 0.4));
 }
 
 fn assert_wall(wall: Option<Wall>, normal: DVec3, distance: f64, what: &str) {

@@ -23,6 +23,7 @@ use v3 as api;
 #[cfg(embree_api = "4")]
 use v4 as api;
 
+mod bounds;
 mod device;
 mod ffi;
 mod hit;
@@ -35,6 +36,7 @@ mod v3;
 #[cfg(embree_api = "4")]
 mod v4;
 
+pub use bounds::GeometryBounds;
 pub use device::{Device, EmbreeError, EmbreeMemory};
 pub use hit::Hit;
 pub use mesh::TriangleMesh;

@@ -28,6 +28,13 @@ pub(super) struct Placement {
 }
 
 impl Geometry {
+    /// The instance's transform and normal matrix; `None` for a mesh placed directly.
+    pub(super) fn placement(&self) -> Option<(&DAffine3, &DMat3)> {
+        self.instance
+            .as_ref()
+            .map(|p| (&p.to_world, &p.normal_matrix))
+    }
+
     /// Triangle `prim`'s vertices in world space, and its vertex normals (world space, not
     /// normalised: an affine map keeps barycentric interpolation, so interpolating these
     /// equals mapping the interpolated local normal).

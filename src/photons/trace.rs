@@ -14,7 +14,7 @@ use crate::photons::footprint::{footprint, FootprintLimits, Guards};
 use crate::photons::light_path::{DiffuseHit, LightPaths};
 use crate::photons::map::{PathClass, Photon, PhotonMap};
 use crate::photons::targets::{specular_targets, DiffuseAim};
-use crate::photons::walls;
+use crate::photons::walls::Walls;
 use crate::scene::Scene;
 use crate::util::rng::Rng;
 use glam::DVec3;
@@ -131,6 +131,8 @@ pub struct PhotonTracer<'a> {
     paths: LightPaths<'a>,
     /// As `paths`, with diffuse bounces aimed at the specular objects: for the global map.
     aimed_paths: LightPaths<'a>,
+    /// The walls footprints are probed for ([`PhotonOptions::probe_walls`]).
+    walls: Option<Walls<'a>>,
 }
 
 /// The cap of [`StopRule::Stored`] for the caustic map: emissions per photon asked for.
@@ -201,6 +203,7 @@ impl<'a> PhotonTracer<'a> {
             diffuse_spread,
             paths,
             aimed_paths,
+            walls: options.probe_walls.then(|| Walls::new(embree)),
         }
     }
 
@@ -409,10 +412,9 @@ impl<'a> PhotonTracer<'a> {
                 );
                 let (p, d, power) = (t.ray.p, t.ray.d, t.power * scale);
                 let mirror = self
-                    .options
-                    .probe_walls
-                    .then(|| walls::nearest_wall(self.embree, p, t.normal, &f, self.paths.epsilon))
-                    .flatten()
+                    .walls
+                    .as_ref()
+                    .and_then(|w| w.nearest(p, t.normal, &f, self.paths.epsilon))
                     .map(|wall| {
                         guards.mirrored += 1;
                         let (at, f) = (wall.reflect_point(p, p), wall.reflect_footprint(&f));
