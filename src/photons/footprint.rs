@@ -35,8 +35,9 @@ pub struct Guards {
     /// Non-finite or zero-area footprints replaced by a round footprint of the nominal radius
     /// (a regular photon).
     pub fallback: u64,
-    /// Footprints that run into a wall or off an edge, given a mirror photon beyond it
-    /// ([`crate::photons::walls`]; the map holds the mirrors besides the photons stored).
+    /// Mirror photons made for footprints that run into a wall or off an edge: one beyond the
+    /// wall, three in an inner corner ([`crate::photons::walls`]; the map holds the mirrors
+    /// besides the photons stored).
     pub mirrored: u64,
 }
 

@@ -394,7 +394,8 @@ impl<'a> PhotonTracer<'a> {
         let scale = 1.0 / counts.emitted.max(1) as f64;
         // Each photon's footprint on its own, on the worker threads (in order), with the
         // guards it tripped and its mirror photon at a wall; the counts are summed after.
-        let (photons, tripped): (Vec<[Option<Photon>; 2]>, Vec<Guards>) = traced
+        // Each photon and its mirror images (one beyond a wall, three in an inner corner).
+        let (photons, tripped): (Vec<[Option<Photon>; 4]>, Vec<Guards>) = traced
             .par_iter()
             .map(|t| {
                 // A photon whose differential degenerated is given the footprint its beam would
@@ -411,24 +412,28 @@ impl<'a> PhotonTracer<'a> {
                     &mut guards,
                 );
                 let (p, d, power) = (t.ray.p, t.ray.d, t.power * scale);
-                let mirror = self
-                    .walls
-                    .as_ref()
-                    .and_then(|w| w.nearest(p, t.normal, &f, self.paths.epsilon))
-                    .map(|wall| {
+                let mut out = [
+                    Some(Photon::new(p, t.normal, d, power, &f)),
+                    None,
+                    None,
+                    None,
+                ];
+                let walls = self.walls.as_ref();
+                if let Some(pair) =
+                    walls.and_then(|w| w.nearest(p, t.normal, &f, self.paths.epsilon))
+                {
+                    for (slot, image) in out[1..].iter_mut().zip(pair.images()) {
                         guards.mirrored += 1;
-                        let (at, f) = (wall.reflect_point(p, p), wall.reflect_footprint(&f));
-                        Photon::new(at, t.normal, wall.reflect_vector(d), power, &f)
-                    });
-                (
-                    [Some(Photon::new(p, t.normal, d, power, &f)), mirror],
-                    guards,
-                )
+                        let (at, f) = (image.point(p, p), image.footprint(&f));
+                        *slot = Some(Photon::new(at, t.normal, image.vector(d), power, &f));
+                    }
+                }
+                (out, guards)
             })
             .unzip();
         let mirror_power = photons
             .iter()
-            .filter_map(|[_, mirror]| mirror.map(|m| m.power.as_dvec3()))
+            .flat_map(|[_, mirrors @ ..]| mirrors.iter().flatten().map(|m| m.power.as_dvec3()))
             .sum();
         let photons: Vec<Photon> = photons.into_iter().flatten().flatten().collect();
         let mut guards = Guards::default();

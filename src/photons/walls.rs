@@ -36,8 +36,10 @@
 //! ray from that probe's origin straight to where the mirror would go must meet the wall too:
 //! beside a box's outer corner a face's line runs on past the face, and the mirror would land
 //! on open floor. If it does not, the next nearest line is tried (of [`CHECKED`]), else the
-//! photon is not mirrored. In a corner only the nearer wall is mirrored. Sixteen probes are one
-//! Embree packet per photon, the checks one more call for the few that stop.
+//! photon is not mirrored. In an inner corner, where a second checked wall stands square to the
+//! first, the photon gets three images (across either wall and across both: the reflection
+//! method in a quadrant); a wedge of another angle keeps the nearer wall's mirror only. Sixteen
+//! probes are one Embree packet per photon, the checks one more call for the few that stop.
 
 use crate::embree::{self, GeometryBounds, Ray, PACKET_WIDTH};
 use crate::photons::cover::OFF_PLANE_TOLERANCE;
@@ -137,19 +139,19 @@ impl<'a> Walls<'a> {
         Walls { embree, bounds }
     }
 
-    /// [`nearest_wall`], answered `None` without probing where no geometry's face could stop
-    /// a probe.
+    /// [`nearest_walls`], answered `None` without probing where no geometry's face could
+    /// stop a probe.
     pub fn nearest(
         &self,
         position: DVec3,
         normal: DVec3,
         footprint: &Footprint,
         epsilon: f64,
-    ) -> Option<Wall> {
+    ) -> Option<WallPair> {
         if !self.may_stop(position, normal, footprint, epsilon) {
             return None;
         }
-        nearest_wall(self.embree, position, normal, footprint, epsilon)
+        nearest_walls(self.embree, position, normal, footprint, epsilon)
     }
 
     /// Whether a probe of the photon's (see the module's comment) may meet a face steeper than
@@ -183,17 +185,86 @@ impl<'a> Walls<'a> {
     }
 }
 
+/// The walls of a photon's footprint: the nearest, and a second one square to it where the
+/// footprint reaches into an inner corner.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WallPair {
+    /// The nearest wall.
+    pub first: Wall,
+    /// A wall within 6 degrees of square to the first ([`MAX_SQUARE_COS`]), the nearest such.
+    pub second: Option<Wall>,
+}
+
+impl WallPair {
+    /// The photon's mirror images, as maps of points, directions and footprints: across the
+    /// first wall; in a corner also across the second, and across both (the half turn about
+    /// the corner). With the three images the kernel is whole in the corner's quadrant: each
+    /// image gives back the part of the photon's kernel beyond one wall, or beyond both.
+    pub fn images(&self) -> impl Iterator<Item = Image> + '_ {
+        let first = std::iter::once(Image {
+            first: self.first,
+            then: None,
+        });
+        let corner = self.second.into_iter().flat_map(move |second| {
+            [
+                Image {
+                    first: second,
+                    then: None,
+                },
+                Image {
+                    first: self.first,
+                    then: Some(second),
+                },
+            ]
+        });
+        first.chain(corner)
+    }
+}
+
+/// One mirror image: the reflection across a wall, then across another where there is one
+/// (lines in the photon's plane, placed relative to the photon).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Image {
+    first: Wall,
+    then: Option<Wall>,
+}
+
+impl Image {
+    /// The image of point `x` (the photon at `photon`).
+    pub fn point(&self, photon: DVec3, x: DVec3) -> DVec3 {
+        let x = self.first.reflect_point(photon, x);
+        self.then.map_or(x, |w| w.reflect_point(photon, x))
+    }
+
+    /// The image of direction `v`.
+    pub fn vector(&self, v: DVec3) -> DVec3 {
+        let v = self.first.reflect_vector(v);
+        self.then.map_or(v, |w| w.reflect_vector(v))
+    }
+
+    /// The image of footprint `f`.
+    pub fn footprint(&self, f: &Footprint) -> Footprint {
+        let f = self.first.reflect_footprint(f);
+        self.then.map_or(f, |w| w.reflect_footprint(&f))
+    }
+}
+
+/// Two walls make a corner (three images) when the cosine between their normals is below
+/// this: within 6 degrees of square. Wedges of other angles are not tiled by mirror images,
+/// and keep the nearer wall's mirror only.
+pub const MAX_SQUARE_COS: f64 = 0.1;
+
 /// The wall or edge within the footprint of a photon at `position` on a surface of unit normal
 /// `normal` (see the module's comment), or `None` when the surface goes on to the footprint's
 /// edge all round. `epsilon` is the scene's ray offset: the probes start at least that far off
 /// the surface.
-pub fn nearest_wall(
+pub fn nearest_walls(
     embree: &embree::Scene,
     position: DVec3,
     normal: DVec3,
     footprint: &Footprint,
     epsilon: f64,
-) -> Option<Wall> {
+) -> Option<WallPair> {
     // The radius vectors along the filter matrix's rows: row k is axis_k / s_k.
     let axes = footprint.m.map(|row| row / row.length_squared());
     if !(axes[0].is_finite() && axes[1].is_finite()) {
@@ -260,11 +331,27 @@ pub fn nearest_wall(
         .collect();
     let mut answers = [None; PROBES];
     embree.hit_normals16(&checks, false, &mut answers);
-    candidates
+    let mut standing = candidates
         .iter()
         .zip(checks.iter().zip(answers))
-        .find(|(_, (ray, hit))| stops(ray, *hit).is_some())
-        .map(|((wall, _), _)| *wall)
+        .filter(|(_, (ray, hit))| stops(ray, *hit).is_some())
+        .map(|((wall, _), _)| *wall);
+    let first = standing.next()?;
+    // A second wall square to the first: the footprint reaches into an inner corner (or, on a
+    // box's top, over two rims that meet).
+    let second = standing.find(|w| w.normal.dot(first.normal).abs() < MAX_SQUARE_COS);
+    Some(WallPair { first, second })
+}
+
+/// [`nearest_walls`]' nearest wall alone.
+pub fn nearest_wall(
+    embree: &embree::Scene,
+    position: DVec3,
+    normal: DVec3,
+    footprint: &Footprint,
+    epsilon: f64,
+) -> Option<Wall> {
+    nearest_walls(embree, position, normal, footprint, epsilon).map(|w| w.first)
 }
 
 #[cfg(test)]
