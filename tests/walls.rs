@@ -303,16 +303,22 @@ material = "white"
 /// The direct-light photon map of the floor beside the wall: 400,000 emissions at overlap 128
 /// give footprints about 0.07 in radius at the wall.
 fn wall_map(light: DVec3, probe_walls: bool) -> (PhotonMap, u64) {
+    direct_map(&[WALL], light, 128.0, probe_walls)
+}
+
+/// The direct-light photon map of 400,000 emissions from a point light at `light` over the
+/// floor with the shapes `walls`, at `overlap`; and the photons stored.
+fn direct_map(walls: &[&str], light: DVec3, overlap: f64, probe_walls: bool) -> (PhotonMap, u64) {
     let header = HEADER.replace(
         "position = [0.0, 2.0, 0.0]",
         &format!("position = [{}, {}, {}]", light.x, light.y, light.z),
     );
-    let scene = scene_of(&[&header, WALL]);
+    let scene = scene_of(&[&[header.as_str()], walls].concat());
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let options = PhotonOptions {
         global_photons: 400_000,
-        overlap: 128.0,
+        overlap,
         probe_walls,
         ..PhotonOptions::default()
     };
@@ -330,12 +336,19 @@ fn wall_map(light: DVec3, probe_walls: bool) -> (PhotonMap, u64) {
 /// The mean of the photon estimate along a row of floor points `d` from the foot of the wall,
 /// over the analytic irradiance there.
 fn at_the_wall(map: &PhotonMap, light: DVec3, d: f64) -> f64 {
+    let points: Vec<DVec3> = (0..41)
+        .map(|k| DVec3::new(1.0 - d, 0.0, -0.5 + k as f64 / 40.0))
+        .collect();
+    relative_estimate(map, light, &points)
+}
+
+/// The mean over floor points `points` of the photon estimate over the analytic irradiance
+/// of the point light (intensity 10) at `light`.
+fn relative_estimate(map: &PhotonMap, light: DVec3, points: &[DVec3]) -> f64 {
     let estimate = PhotonDifferentialEstimate { map };
     let mut gathers = GatherCounts::default();
-    let points = 41;
     let mut sum = 0.0;
-    for k in 0..points {
-        let x = DVec3::new(1.0 - d, 0.0, -0.5 + k as f64 / (points - 1) as f64);
+    for &x in points {
         let d2 = (x - light).length_squared();
         let analytic = 10.0 * (light.y / d2.sqrt()) / d2;
         // Albedo pi turns the reflected radiance (albedo / pi) E into the irradiance E.
@@ -348,7 +361,7 @@ fn at_the_wall(map: &PhotonMap, light: DVec3, d: f64) -> f64 {
         };
         sum += estimate.radiance(&query, &mut gathers).x / analytic;
     }
-    sum / points as f64
+    sum / points.len() as f64
 }
 
 #[test]
@@ -480,44 +493,13 @@ material = "white"
 /// the seen side, and with the light at (0, 2, 0) that slope alone put the corner at x1.12.
 fn in_the_corner(probe_walls: bool) -> f64 {
     let light = DVec3::new(0.8, 2.0, -0.8);
-    let header = HEADER.replace("position = [0.0, 2.0, 0.0]", "position = [0.8, 2.0, -0.8]");
-    let scene = scene_of(&[&header, WALL, SECOND_WALL]);
-    let device = Device::new().unwrap();
-    let embree = scene.build_embree(&device).unwrap();
-    let options = PhotonOptions {
-        global_photons: 400_000,
-        overlap: 1024.0,
-        probe_walls,
-        ..PhotonOptions::default()
-    };
-    let tracer = PhotonTracer::new(&scene, &embree, &options);
-    let emitter = Emitter::global(&scene, options.global_photons, options.overlap, 1);
-    let (map, _) = tracer.build_map(
-        &emitter,
-        PathClass::Direct,
-        StopRule::Emitted(options.global_photons),
-        &indicatif::ProgressBar::hidden(),
-    );
-    let estimate = PhotonDifferentialEstimate { map: &map };
-    let mut gathers = GatherCounts::default();
-    let mut sum = 0.0;
+    let (map, _) = direct_map(&[WALL, SECOND_WALL], light, 1024.0, probe_walls);
     let steps = [0.002, 0.009, 0.016, 0.023, 0.03];
-    for dx in steps {
-        for dz in steps {
-            let x = DVec3::new(1.0 - dx, 0.0, -1.0 + dz);
-            let d2 = (x - light).length_squared();
-            let analytic = 10.0 * (light.y / d2.sqrt()) / d2;
-            let query = GatherQuery {
-                position: x,
-                normal: DVec3::Y,
-                albedo: DVec3::splat(PI),
-                footprint: [DVec3::ZERO; 2],
-                exact: None,
-            };
-            sum += estimate.radiance(&query, &mut gathers).x / analytic;
-        }
-    }
-    sum / (steps.len() * steps.len()) as f64
+    let points: Vec<DVec3> = steps
+        .iter()
+        .flat_map(|dx| steps.map(|dz| DVec3::new(1.0 - dx, 0.0, -1.0 + dz)))
+        .collect();
+    relative_estimate(&map, light, &points)
 }
 
 #[test]
