@@ -245,6 +245,55 @@ fn a_convex_edge_and_the_foot_of_a_box_are_walls() {
         0.1,
         "beside",
     );
+    // There the box's other face, square to the first, is no second wall: its line runs past
+    // it, so it is not a corner the photon's surface lies in.
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let pair = nearest_walls(&embree, beside, DVec3::Y, &round(r), scene.ray_epsilon());
+    assert_eq!(
+        pair.map(|p| (p.second, p.images().count())),
+        Some((None, 1))
+    );
+    // On the box's top, near its corner, both rims: three images.
+    let top_corner = DVec3::new(1.1, 0.5, 1.8);
+    let pair = nearest_walls(
+        &embree,
+        top_corner,
+        DVec3::Y,
+        &round(r),
+        scene.ray_epsilon(),
+    )
+    .expect("the top's rims");
+    assert_wall(Some(pair.first), -DVec3::X, 0.1, "the top's nearer rim");
+    assert_wall(pair.second, DVec3::Z, 0.2, "the top's other rim");
+}
+
+#[test]
+fn beyond_the_screens_limit_every_photon_is_probed() {
+    // Tiny flat tiles far from the photon, flat like the floor: none could stop a probe, but
+    // past `Walls::MAX_SCREENED` geometries the screen is not scanned.
+    let tile = |k: usize| {
+        format!(
+            "[[shapes]]\ntype = \"quad\"\ncorner = [{}, 0.0, -4.9]\nedge_u = [0.01, 0.0, 0.0]\nedge_v = [0.0, 0.0, -0.01]\nmaterial = \"white\"\n",
+            -4.9 + 0.02 * k as f64
+        )
+    };
+    for (count, probed) in [
+        (Walls::MAX_SCREENED - 1, false),
+        (Walls::MAX_SCREENED, true),
+    ] {
+        let tiles: Vec<String> = (0..count).map(tile).collect();
+        let parts: Vec<&str> = std::iter::once(HEADER)
+            .chain(tiles.iter().map(String::as_str))
+            .collect();
+        let scene = scene_of(&parts);
+        let at = DVec3::new(0.3, 0.0, 0.2);
+        assert_eq!(
+            screened_in(&scene, at, 0.1),
+            probed,
+            "{count} tiles and the floor"
+        );
+    }
 }
 
 #[test]
