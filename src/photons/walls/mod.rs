@@ -41,7 +41,13 @@
 //! method in a quadrant); a wedge of another angle keeps the nearer wall's mirror only. Sixteen
 //! probes are one Embree packet per photon, the checks one more call for the few that stop.
 
-use crate::embree::{self, GeometryBounds, Ray, PACKET_WIDTH};
+mod mirror;
+mod screen;
+
+pub use mirror::{Image, Wall, WallPair, MAX_SQUARE_COS};
+pub use screen::Walls;
+
+use crate::embree::{self, Ray, PACKET_WIDTH};
 use crate::photons::cover::OFF_PLANE_TOLERANCE;
 use crate::photons::footprint::Footprint;
 use glam::DVec3;
@@ -79,180 +85,7 @@ const CHECKED: usize = 3;
 /// curved surface, which a probe meets at a grazing angle, the surface continues for the
 /// gathers (they accept points a little off a photon's plane), and so does the floor under the
 /// bottom of a sphere resting on it, which the camera may see through glass.
-const MAX_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
-
-/// The line in a photon's plane where its surface meets a wall or ends: the photon's mirror
-/// image across it stands for the part of its footprint beyond.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Wall {
-    /// Unit normal of the line within the photon's plane, pointing from the photon to the wall.
-    pub normal: DVec3,
-    /// Distance from the photon to the line.
-    pub distance: f64,
-}
-
-impl Wall {
-    /// The mirror image of point `x` (in the photon's plane) across the line.
-    pub fn reflect_point(&self, photon: DVec3, x: DVec3) -> DVec3 {
-        let across = (x - photon).dot(self.normal) - self.distance;
-        x - self.normal * (2.0 * across)
-    }
-
-    /// The mirror image of direction `v`.
-    pub fn reflect_vector(&self, v: DVec3) -> DVec3 {
-        v - self.normal * (2.0 * v.dot(self.normal))
-    }
-
-    /// The mirror photon's footprint: the kernel `K(|M (x - p)|)` mirrored is
-    /// `K(|M R (x - p*)|)` with `R` the reflection, so its filter rows are `R m_k` (`R` is
-    /// symmetric); its area and radius are the photon's.
-    pub fn reflect_footprint(&self, f: &Footprint) -> Footprint {
-        Footprint {
-            m: [self.reflect_vector(f.m[0]), self.reflect_vector(f.m[1])],
-            ..*f
-        }
-    }
-}
-
-/// The walls of a scene, probed for with [`nearest_wall`] where some geometry could hold one.
-///
-/// Why a screen: most photons lie in the open, and their probes (one Embree packet each) find
-/// nothing; on the canonical scene, whose floor is flat and whose sphere rests on it, that was
-/// a tenth of the photon stage. A probe can stop only at a face of a geometry whose bounding
-/// sphere its reach enters, and never at a flat geometry's face when that geometry lies within
-/// 45 degrees of the photon's plane ([`MAX_COS`]): its faces all share its plane's normal. So
-/// where no other geometry is that near, the answer is `None` without a ray. With more than
-/// [`Walls::MAX_SCREENED`] geometries (instanced scenes) every photon is probed.
-pub struct Walls<'a> {
-    embree: &'a embree::Scene,
-    /// Each geometry's bounds, or `None` when there are too many to scan per photon.
-    bounds: Option<Vec<GeometryBounds>>,
-}
-
-impl<'a> Walls<'a> {
-    /// Geometries scanned per photon at most; beyond, every photon is probed.
-    pub const MAX_SCREENED: usize = 64;
-
-    /// The screen over `embree`'s geometries.
-    pub fn new(embree: &'a embree::Scene) -> Self {
-        let bounds = (embree.mesh_count() <= Self::MAX_SCREENED).then(|| embree.geometry_bounds());
-        Walls { embree, bounds }
-    }
-
-    /// [`nearest_walls`], answered `None` without probing where no geometry's face could
-    /// stop a probe.
-    pub fn nearest(
-        &self,
-        position: DVec3,
-        normal: DVec3,
-        footprint: &Footprint,
-        epsilon: f64,
-    ) -> Option<WallPair> {
-        if !self.may_stop(position, normal, footprint, epsilon) {
-            return None;
-        }
-        nearest_walls(self.embree, position, normal, footprint, epsilon)
-    }
-
-    /// Whether a probe of the photon's (see the module's comment) may meet a face steeper than
-    /// 45 degrees to its plane: some geometry's bounding sphere comes within the probes'
-    /// reach, and that geometry is not flat within 45 degrees of the plane.
-    pub fn may_stop(
-        &self,
-        position: DVec3,
-        normal: DVec3,
-        footprint: &Footprint,
-        epsilon: f64,
-    ) -> bool {
-        let Some(bounds) = &self.bounds else {
-            return true;
-        };
-        let axes = footprint.m.map(|row| row / row.length_squared());
-        // A probe runs from at most `depth` off the photon to at most `|axes[0]| + |axes[1]|`
-        // along its plane (its direction is a unit combination of the two).
-        let depth = (OFF_PLANE_TOLERANCE as f64 * footprint.radius).max(epsilon);
-        let reach = axes[0].length() + axes[1].length() + depth;
-        if !reach.is_finite() {
-            return true;
-        }
-        bounds.iter().any(|b| {
-            let near = position.distance_squared(b.center) <= (b.radius + reach).powi(2);
-            let flat_beside = b
-                .plane_normal
-                .is_some_and(|n| n.dot(normal).abs() >= MAX_COS);
-            near && !flat_beside
-        })
-    }
-}
-
-/// The walls of a photon's footprint: the nearest, and a second one square to it where the
-/// footprint reaches into an inner corner.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct WallPair {
-    /// The nearest wall.
-    pub first: Wall,
-    /// A wall within 6 degrees of square to the first ([`MAX_SQUARE_COS`]), the nearest such.
-    pub second: Option<Wall>,
-}
-
-impl WallPair {
-    /// The photon's mirror images, as maps of points, directions and footprints: across the
-    /// first wall; in a corner also across the second, and across both (the half turn about
-    /// the corner). With the three images the kernel is whole in the corner's quadrant: each
-    /// image gives back the part of the photon's kernel beyond one wall, or beyond both.
-    pub fn images(&self) -> impl Iterator<Item = Image> + '_ {
-        let first = std::iter::once(Image {
-            first: self.first,
-            then: None,
-        });
-        let corner = self.second.into_iter().flat_map(move |second| {
-            [
-                Image {
-                    first: second,
-                    then: None,
-                },
-                Image {
-                    first: self.first,
-                    then: Some(second),
-                },
-            ]
-        });
-        first.chain(corner)
-    }
-}
-
-/// One mirror image: the reflection across a wall, then across another where there is one
-/// (lines in the photon's plane, placed relative to the photon).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Image {
-    first: Wall,
-    then: Option<Wall>,
-}
-
-impl Image {
-    /// The image of point `x` (the photon at `photon`).
-    pub fn point(&self, photon: DVec3, x: DVec3) -> DVec3 {
-        let x = self.first.reflect_point(photon, x);
-        self.then.map_or(x, |w| w.reflect_point(photon, x))
-    }
-
-    /// The image of direction `v`.
-    pub fn vector(&self, v: DVec3) -> DVec3 {
-        let v = self.first.reflect_vector(v);
-        self.then.map_or(v, |w| w.reflect_vector(v))
-    }
-
-    /// The image of footprint `f`.
-    pub fn footprint(&self, f: &Footprint) -> Footprint {
-        let f = self.first.reflect_footprint(f);
-        self.then.map_or(f, |w| w.reflect_footprint(&f))
-    }
-}
-
-/// Two walls make a corner (three images) when the cosine between their normals is below
-/// this: within 6 degrees of square. Wedges of other angles are not tiled by mirror images,
-/// and keep the nearer wall's mirror only.
-pub const MAX_SQUARE_COS: f64 = 0.1;
+pub(crate) const MAX_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
 /// The wall or edge within the footprint of a photon at `position` on a surface of unit normal
 /// `normal` (see the module's comment), or `None` when the surface goes on to the footprint's
