@@ -59,17 +59,11 @@ fn mesh_bounds(mesh: &TriangleMesh) -> GeometryBounds {
         .fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(v), hi.max(v))
         });
-    if !(lo.is_finite() && hi.is_finite()) {
-        // No vertex (or a non-finite one, which Embree drops): nothing to bound but a point
-        // that holds nothing. A non-finite vertex is never part of a triangle Embree hits.
-        let center = if lo.is_finite() { lo } else { DVec3::ZERO };
+    if mesh.positions.is_empty() {
+        // Nothing to bound. (Every vertex is finite: `TriangleMesh::validate` saw to it.)
         return GeometryBounds {
-            center,
-            radius: if lo.is_finite() {
-                (hi - lo).length()
-            } else {
-                0.0
-            },
+            center: DVec3::ZERO,
+            radius: 0.0,
             plane_normal: None,
         };
     }

@@ -393,8 +393,8 @@ impl<'a> PhotonTracer<'a> {
         let limits = self.options.limits(self.scene);
         let scale = 1.0 / counts.emitted.max(1) as f64;
         // Each photon's footprint on its own, on the worker threads (in order), with the
-        // guards it tripped and its mirror photon at a wall; the counts are summed after.
-        // Each photon and its mirror images (one beyond a wall, three in an inner corner).
+        // guards it tripped and its mirror images (one beyond a wall, three in an inner
+        // corner); the counts are summed after.
         let (photons, tripped): (Vec<[Option<Photon>; 4]>, Vec<Guards>) = traced
             .par_iter()
             .map(|t| {

@@ -87,6 +87,17 @@ const CHECKED: usize = 3;
 /// bottom of a sphere resting on it, which the camera may see through glass.
 pub(crate) const MAX_COS: f64 = std::f64::consts::FRAC_1_SQRT_2;
 
+/// What the probes of a photon with `footprint` span: its radius vectors along the filter
+/// matrix's rows (row k is `axis_k / s_k`; each probe's direction is a unit combination of the
+/// two, and it runs to `t = 1`), and the depth below the surface of the lower probes (at least
+/// `epsilon`, as the upper ones start `epsilon` above it). `None` for a degenerate footprint,
+/// which is not probed.
+pub(crate) fn probe_extent(footprint: &Footprint, epsilon: f64) -> Option<([DVec3; 2], f64)> {
+    let axes = footprint.m.map(|row| row / row.length_squared());
+    let depth = (OFF_PLANE_TOLERANCE as f64 * footprint.radius).max(epsilon);
+    (axes[0].is_finite() && axes[1].is_finite() && depth.is_finite()).then_some((axes, depth))
+}
+
 /// The wall or edge within the footprint of a photon at `position` on a surface of unit normal
 /// `normal` (see the module's comment), or `None` when the surface goes on to the footprint's
 /// edge all round. `epsilon` is the scene's ray offset: the probes start at least that far off
@@ -98,12 +109,7 @@ pub fn nearest_walls(
     footprint: &Footprint,
     epsilon: f64,
 ) -> Option<WallPair> {
-    // The radius vectors along the filter matrix's rows: row k is axis_k / s_k.
-    let axes = footprint.m.map(|row| row / row.length_squared());
-    if !(axes[0].is_finite() && axes[1].is_finite()) {
-        return None;
-    }
-    let depth = (OFF_PLANE_TOLERANCE as f64 * footprint.radius).max(epsilon);
+    let (axes, depth) = probe_extent(footprint, epsilon)?;
     let mut rays = [Ray::new(DVec3::ZERO, DVec3::X); PROBES];
     for (k, &(cos, sin)) in SECTOR_CENTRES.iter().enumerate() {
         let direction = axes[0] * cos + axes[1] * sin;
@@ -154,9 +160,6 @@ pub fn nearest_walls(
         {
             candidates.push((wall, origin));
         }
-    }
-    if candidates.is_empty() {
-        return None;
     }
     let checks: Vec<Ray> = candidates
         .iter()

@@ -1,8 +1,7 @@
 //! Which photons to probe for walls: a screen over the scene's geometries' bounds.
 
-use super::{nearest_walls, WallPair, MAX_COS};
+use super::{nearest_walls, probe_extent, WallPair, MAX_COS};
 use crate::embree::{self, GeometryBounds};
-use crate::photons::cover::OFF_PLANE_TOLERANCE;
 use crate::photons::footprint::Footprint;
 use glam::DVec3;
 
@@ -10,11 +9,12 @@ use glam::DVec3;
 ///
 /// Why a screen: most photons lie in the open, and their probes (one Embree packet each) find
 /// nothing; on the canonical scene, whose floor is flat and whose sphere rests on it, that was
-/// a twelfth of the default render's photon stage. A probe can stop only at a face of a geometry whose bounding
-/// sphere its reach enters, and never at a flat geometry's face when that geometry lies within
-/// 45 degrees of the photon's plane ([`MAX_COS`]): its faces all share its plane's normal. So
-/// where no other geometry is that near, the answer is `None` without a ray. With more than
-/// [`Walls::MAX_SCREENED`] geometries (instanced scenes) every photon is probed.
+/// a twelfth of the default render's photon stage. A probe can stop only at a face of a
+/// geometry whose bounding sphere its reach enters, and never at a flat geometry's face when
+/// that geometry lies within 45 degrees of the photon's plane ([`MAX_COS`]): its faces all
+/// share its plane's normal. So where no other geometry is that near, the answer is `None`
+/// without a ray. With more than [`Walls::MAX_SCREENED`] geometries (instanced scenes) every
+/// photon is probed.
 pub struct Walls<'a> {
     embree: &'a embree::Scene,
     /// Each geometry's bounds, or `None` when there are too many to scan per photon.
@@ -59,14 +59,12 @@ impl<'a> Walls<'a> {
         let Some(bounds) = &self.bounds else {
             return true;
         };
-        let axes = footprint.m.map(|row| row / row.length_squared());
-        // A probe runs from at most `depth` off the photon to at most `|axes[0]| + |axes[1]|`
-        // along its plane (its direction is a unit combination of the two).
-        let depth = (OFF_PLANE_TOLERANCE as f64 * footprint.radius).max(epsilon);
+        // A degenerate footprint is not probed at all.
+        let Some((axes, depth)) = probe_extent(footprint, epsilon) else {
+            return false;
+        };
+        // The probes reach at most `|axes[0]| + |axes[1]|` along the plane, `depth` off it.
         let reach = axes[0].length() + axes[1].length() + depth;
-        if !reach.is_finite() {
-            return true;
-        }
         bounds.iter().any(|b| {
             let near = position.distance_squared(b.center) <= (b.radius + reach).powi(2);
             let flat_beside = b
