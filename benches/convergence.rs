@@ -35,7 +35,9 @@ use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::reference::report::{self, Chart, Render, Report, Table};
 use photondiff::render::film::Film;
 use photondiff::render::pass_sum::PassSum;
-use photondiff::render::passes::{Progressive, RenderDefaults, StopRules, DEFAULT_ALPHA};
+use photondiff::render::passes::{
+    Progressive, RenderDefaults, StopRules, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA,
+};
 use photondiff::render::stats::Stats;
 use photondiff::render::RenderOptions;
 use photondiff::scene::file::load_scene;
@@ -123,6 +125,7 @@ fn progressive(
             .with_footprint_strata(defaults.footprint_strata)
             .with_threads(threads),
         alpha: DEFAULT_ALPHA,
+        global_alpha: DEFAULT_GLOBAL_ALPHA,
     };
     let mut sum = PassSum::new(scene.camera.width, scene.camera.height);
     let start = Instant::now();

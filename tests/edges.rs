@@ -8,7 +8,7 @@ use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::render::edges::{edge_pixels, same_surface, EdgeMask};
 use photondiff::render::film::Film;
-use photondiff::render::passes::{Progressive, StopRules, DEFAULT_ALPHA};
+use photondiff::render::passes::{Progressive, StopRules, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
 use photondiff::render::split::Window;
 use photondiff::render::stats::Stats;
 use photondiff::render::{render, RenderOptions, TILE_SIZE};
@@ -356,6 +356,7 @@ fn a_progressive_run_finds_its_edge_pixels_once() {
         },
         render: RenderOptions::default().with_edge_grid(4).with_threads(2),
         alpha: DEFAULT_ALPHA,
+        global_alpha: DEFAULT_GLOBAL_ALPHA,
     };
     let stop = StopRules {
         passes: Some(3),

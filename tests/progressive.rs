@@ -6,7 +6,9 @@ use photondiff::embree::Device;
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::render::pass_sum::PassSum;
-use photondiff::render::passes::{area_factor, jitter, StopReason, DEFAULT_ALPHA};
+use photondiff::render::passes::{
+    area_factor, jitter, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA,
+};
 use photondiff::render::stats::Stats;
 use photondiff::render::{render, trace_photon_maps, Progressive, RenderOptions, StopRules};
 use photondiff::scene::file::{load_scene, parse_scene};
@@ -100,6 +102,7 @@ fn one_pass_is_the_plain_render_bit_for_bit() {
             estimator: settings(kind, &scene, &photons),
             render: RenderOptions::default(),
             alpha: DEFAULT_ALPHA,
+            global_alpha: DEFAULT_GLOBAL_ALPHA,
         };
         let mut stats = Stats::default();
         let sum = progressive.run(&passes(1), false, &mut stats).unwrap();
@@ -132,6 +135,7 @@ fn passes_are_bit_identical_on_any_thread_count_and_merge_from_ranges() {
                 .with_view_grid(2)
                 .with_seed(9),
             alpha: DEFAULT_ALPHA,
+            global_alpha: DEFAULT_GLOBAL_ALPHA,
         };
         let whole = progressive
             .run(&passes(4), false, &mut Stats::default())
@@ -223,6 +227,7 @@ fn the_progressive_mean_does_not_drift_from_the_analytic_caustic() {
         estimator: settings(kind, &scene, &photons),
         render: RenderOptions::default().with_seed(5),
         alpha: DEFAULT_ALPHA,
+        global_alpha: DEFAULT_GLOBAL_ALPHA,
     };
     let (with_photons, direct) = (
         progressive(EstimatorKind::Pd),
@@ -277,10 +282,21 @@ fn the_progressive_mean_does_not_drift_from_the_analytic_caustic() {
             pass + 1
         );
     }
-    // Every footprint shrinks by the schedule, clamped ones too: the same photons (pass 0's
-    // seed) traced with pass 15's settings have s_15 times the area.
-    let (p0, _, _) = with_photons.pass_settings(0);
-    let (p15, _, _) = with_photons.pass_settings(15);
+    // Every footprint shrinks by its map's schedule, clamped ones too: the same photons (pass
+    // 0's seed) traced with pass 15's settings have s_15 times the area, the caustic map's by
+    // `alpha`'s schedule and the global map's by `global_alpha`'s.
+    // Two schedules apart, to tell the maps' factors apart.
+    let global_alpha = 0.8;
+    let with_global = Progressive {
+        photons: PhotonOptions {
+            global_photons: 2_000,
+            ..photons.clone()
+        },
+        global_alpha,
+        ..with_photons.clone()
+    };
+    let (p0, _, _) = with_global.pass_settings(0);
+    let (p15, _, _) = with_global.pass_settings(15);
     let p15 = PhotonOptions {
         seed: p0.seed,
         ..p15
@@ -288,26 +304,31 @@ fn the_progressive_mean_does_not_drift_from_the_analytic_caustic() {
     let mut stats = Stats::default();
     let m0 = trace_photon_maps(&scene, &embree, &p0, 0, false, &mut stats).unwrap();
     let m15 = trace_photon_maps(&scene, &embree, &p15, 0, false, &mut stats).unwrap();
-    let s = area_factor(DEFAULT_ALPHA, 15);
-    assert!(s < 0.5, "{s}");
-    assert_eq!(m0.caustic.photons.len(), m15.caustic.photons.len());
+    let caustic = area_factor(DEFAULT_ALPHA, 15);
+    let global = area_factor(global_alpha, 15);
+    assert!(
+        caustic < 0.3 && global < 0.7 && caustic < 0.5 * global,
+        "{caustic} {global}"
+    );
     // (Compared in sorted order: the maps may order their photons by footprint size.)
-    let areas = |m: &photondiff::photons::PhotonMaps| {
-        let mut a: Vec<f64> = m
-            .caustic
-            .photons
-            .iter()
-            .map(|p| 1.0 / p.inv_area as f64)
-            .collect();
+    let areas = |m: &photondiff::photons::map::PhotonMap| {
+        let mut a: Vec<f64> = m.photons.iter().map(|p| 1.0 / p.inv_area as f64).collect();
         a.sort_by(f64::total_cmp);
         a
     };
-    for (a, b) in areas(&m0).iter().zip(areas(&m15)) {
-        let ratio = b / a;
-        assert!(
-            (ratio / s - 1.0).abs() < 1e-5,
-            "area ratio {ratio}, schedule {s}"
-        );
+    for (name, a, b, s) in [
+        ("caustic", &m0.caustic, &m15.caustic, caustic),
+        ("global", &m0.global, &m15.global, global),
+    ] {
+        assert!(a.photons.len() > 10, "{name}: {} photons", a.photons.len());
+        assert_eq!(a.photons.len(), b.photons.len(), "{name}");
+        for (a, b) in areas(a).iter().zip(areas(b)) {
+            let ratio = b / a;
+            assert!(
+                (ratio / s - 1.0).abs() < 1e-5,
+                "{name}: area ratio {ratio}, schedule {s}"
+            );
+        }
     }
 }
 
@@ -413,6 +434,17 @@ fn pass_options_are_validated_with_one_line_errors() {
             "--target-noise must be a positive relative standard error (e.g. 0.01), got NaN",
         ),
         ("--alpha", "1", "--alpha must be in (0, 1), got 1"),
+        ("--alpha", "NaN", "--alpha must be in (0, 1), got NaN"),
+        (
+            "--global-alpha",
+            "0",
+            "--global-alpha must be in (0, 1), got 0",
+        ),
+        (
+            "--global-alpha",
+            "-0.5",
+            "--global-alpha must be in (0, 1), got -0.5",
+        ),
     ];
     for (option, value, message) in cases {
         let out = photondiff(&["render", "--quiet", option, value, scene]);

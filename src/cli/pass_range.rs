@@ -72,6 +72,7 @@ pub fn render(
     stats.progressive = Some(PassReport {
         passes: total,
         alpha: progressive.alpha,
+        global_alpha: progressive.global_alpha,
         last_area_factor: area_factor(progressive.alpha, range.end - 1),
         stop: StopReason::Passes,
         seconds_per_pass: start.elapsed().as_secs_f64() / sum.passes.max(1) as f64,

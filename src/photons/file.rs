@@ -53,6 +53,7 @@ pub fn settings(options: &PhotonOptions) -> BTreeMap<String, String> {
         ("--photons", options.global_photons.to_string()),
         ("--caustic-photons", options.caustic_photons.to_string()),
         ("--overlap", options.overlap.to_string()),
+        ("global_area_scale", options.global_area_scale.to_string()),
         ("--seed", options.seed.to_string()),
         ("--global-aim", options.global_aim.to_string()),
         ("--probe-walls", options.probe_walls.to_string()),

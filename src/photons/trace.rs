@@ -34,6 +34,11 @@ pub struct PhotonOptions {
     pub caustic_photons: usize,
     /// Expected number of footprints covering a point (see [`crate::photons::emission`]). Default 32.
     pub overlap: f64,
+    /// The global map's footprint area as a multiple of the caustic map's: its overlap is
+    /// `overlap * global_area_scale` and its guards' radii `sqrt(global_area_scale)` times
+    /// `radius_limits`. Default 1; progressive passes shrink the two maps on schedules of their
+    /// own ([`crate::render::passes`]).
+    pub global_area_scale: f64,
     /// Maximum number of bounces of a photon path. Default 64. Russian roulette ends paths;
     /// this only bounds pathological ones (a closed mirror box), and cuts light: a closed scene
     /// of albedo 0.8 loses `0.8^(n+1)` of its light at `n` bounces, 2.3% at the former 16,
@@ -70,6 +75,7 @@ impl Default for PhotonOptions {
             global_photons: 100_000,
             caustic_photons: 20_000,
             overlap: 32.0,
+            global_area_scale: 1.0,
             max_bounces: 64,
             radius_limits: (1e-5, 0.02),
             max_anisotropy: 20.0,
@@ -82,7 +88,7 @@ impl Default for PhotonOptions {
 }
 
 impl PhotonOptions {
-    /// The footprint limits for `scene`.
+    /// The footprint limits for `scene` (the caustic map's).
     pub fn limits(&self, scene: &Scene) -> FootprintLimits {
         let extent = scene.extent();
         FootprintLimits {
@@ -90,6 +96,28 @@ impl PhotonOptions {
             max_radius: self.radius_limits.1 * extent,
             max_anisotropy: self.max_anisotropy,
         }
+    }
+
+    /// The footprint limits for `scene` of the map of `class`: the global map's (and the
+    /// radiance map's) radii scaled by `sqrt(global_area_scale)`.
+    pub fn class_limits(&self, scene: &Scene, class: PathClass) -> FootprintLimits {
+        let limits = self.limits(scene);
+        match class {
+            PathClass::Caustic | PathClass::Direct => limits,
+            PathClass::Global | PathClass::AllDiffuse => {
+                let r = self.global_area_scale.sqrt();
+                FootprintLimits {
+                    min_radius: limits.min_radius * r,
+                    max_radius: limits.max_radius * r,
+                    ..limits
+                }
+            }
+        }
+    }
+
+    /// The global map's overlap: `overlap * global_area_scale`.
+    pub fn global_overlap(&self) -> f64 {
+        self.overlap * self.global_area_scale
     }
 }
 
@@ -183,7 +211,9 @@ impl<'a> PhotonTracer<'a> {
     /// A tracer for `scene`.
     pub fn new(scene: &'a Scene, embree: &'a embree::Scene, options: &'a PhotonOptions) -> Self {
         let n = options.global_photons.max(1) as f64;
-        let diffuse_spread = (options.overlap * 2.0 * PI / (PI * n)).sqrt();
+        // Only paths that go on past a diffuse hit use it: the global map's (and the
+        // reference's), so it follows the global map's overlap.
+        let diffuse_spread = (options.global_overlap() * 2.0 * PI / (PI * n)).sqrt();
         let paths = LightPaths {
             scene,
             embree,
@@ -390,7 +420,7 @@ impl<'a> PhotonTracer<'a> {
         progress: &indicatif::ProgressBar,
     ) -> (PhotonMap, TraceCounts) {
         let (traced, counts) = self.trace_photons(emitter, class, stop, progress);
-        let limits = self.options.limits(self.scene);
+        let limits = self.options.class_limits(self.scene, class);
         let scale = 1.0 / counts.emitted.max(1) as f64;
         // Each photon's footprint on its own, on the worker threads (in order), with the
         // guards it tripped and its mirror images (one beyond a wall, three in an inner

@@ -9,7 +9,9 @@ use crate::photons::PhotonMaps;
 use crate::render::film::Film;
 use crate::render::image::render_image;
 use crate::render::pass_sum::PassSum;
-use crate::render::passes::{Progressive, RenderDefaults, DEFAULT_ALPHA, DEFAULT_PASSES};
+use crate::render::passes::{
+    Progressive, RenderDefaults, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA, DEFAULT_PASSES,
+};
 use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
 use crate::scene::Scene;
@@ -161,6 +163,7 @@ impl Method {
             estimator: settings,
             render: options,
             alpha: DEFAULT_ALPHA,
+            global_alpha: DEFAULT_GLOBAL_ALPHA,
         };
         let mut sum = PassSum::new(scene.camera.width, scene.camera.height);
         if own_photons.is_some() {

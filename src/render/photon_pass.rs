@@ -44,8 +44,12 @@ pub fn trace_photon_maps(
                 StopRule::Stored(options.caustic_photons),
                 &bar,
             );
-            let global_emitter =
-                Emitter::global(scene, options.global_photons, options.overlap, options.seed);
+            let global_emitter = Emitter::global(
+                scene,
+                options.global_photons,
+                options.global_overlap(),
+                options.seed,
+            );
             let stop = StopRule::Stored(options.global_photons);
             if options.radiance_map {
                 let (traced, g) =
@@ -64,7 +68,9 @@ pub fn trace_photon_maps(
             radiance: None,
         },
         Err(traced) => {
-            let max_radius = options.limits(scene).max_radius;
+            let max_radius = options
+                .class_limits(scene, PathClass::AllDiffuse)
+                .max_radius;
             let emitted = counts[1].emitted;
             let radiance = stats.time("radiance map", || {
                 pool.install(|| RadianceMap::new(&traced, emitted, max_radius))
