@@ -29,13 +29,13 @@
 //!   gather still sees a photon ([`OFF_PLANE_TOLERANCE`] times the footprint's radius): a
 //!   surface that bends away more slowly still holds the gathers that see the photon.
 //!
-//! A probe stops only at a face steeper than 45 degrees to the photon's plane ([`MAX_COS`]).
+//! A probe stops only at a face steeper than 45 degrees to the photon's plane (`MAX_COS`).
 //! Each ray runs to the footprint's boundary in its direction (its direction is the footprint's
 //! radius vector there, so it ends at `t = 1`). The face the nearest stop met (nearest to the
 //! photon across the face's line) gives the line: where its plane meets the photon's plane. A
 //! ray from that probe's origin straight to where the mirror would go must meet the wall too:
 //! beside a box's outer corner a face's line runs on past the face, and the mirror would land
-//! on open floor. If it does not, the next nearest line is tried (of [`CHECKED`]), else the
+//! on open floor. If it does not, the next nearest line is tried (of `CHECKED`), else the
 //! photon is not mirrored. In an inner corner, where a second checked wall stands square to the
 //! first, the photon gets three images (across either wall and across both: the reflection
 //! method in a quadrant); a wedge of another angle keeps the nearer wall's mirror only. Sixteen

@@ -11,7 +11,7 @@ use glam::DVec3;
 /// nothing; on the canonical scene, whose floor is flat and whose sphere rests on it, that was
 /// a twelfth of the default render's photon stage. A probe can stop only at a face of a
 /// geometry whose bounding sphere its reach enters, and never at a flat geometry's face when
-/// that geometry lies within 45 degrees of the photon's plane ([`MAX_COS`]): its faces all
+/// that geometry lies within 45 degrees of the photon's plane (`MAX_COS`): its faces all
 /// share its plane's normal. So where no other geometry is that near, the answer is `None`
 /// without a ray. With more than [`Walls::MAX_SCREENED`] geometries (instanced scenes) every
 /// photon is probed.
