@@ -167,3 +167,128 @@ fn aimed_bounces_store_more_global_photons_carrying_the_same_light() {
         "{aimed_error} {plain_error}"
     );
 }
+
+/// An aimed global emitter stands for the same light: over many emissions from the canonical
+/// scene's point light the mean emitted power is the light's (4 pi I) and the power sent into
+/// the glass sphere's cone is `I` times its solid angle, while far more of its emissions go
+/// there (the aimed share plus the isotropic part's); with no aim it is the plain global
+/// emitter, emission for emission.
+#[test]
+fn aimed_emissions_carry_the_lights_power_and_favour_the_specular_objects() {
+    use photondiff::photons::emission::Emitter;
+    use photondiff::photons::targets::{cone, cone_solid_angle, specular_targets};
+    use photondiff::util::rng::Rng;
+    let scene = photondiff::scene::file::load_scene(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    )))
+    .unwrap();
+    let light = glam::DVec3::new(-4.0, 4.0, -1.0);
+    let intensity = 60.0;
+    let target = specular_targets(&scene)[0];
+    let (axis, cos_max) = cone(light, &target);
+    let omega = cone_solid_angle(cos_max);
+    let n = 400_000u64;
+    let sums = |emitter: &Emitter| {
+        let (mut total, mut into, mut count) = (0.0, 0.0, 0u64);
+        for i in 0..n {
+            let mut rng = Rng::new(7, i);
+            if let Some(e) = emitter.emit(i, &mut rng) {
+                assert_eq!(e.ray.p, light);
+                total += e.power.y;
+                if e.ray.d.dot(axis) >= cos_max {
+                    into += e.power.y;
+                    count += 1;
+                }
+            }
+        }
+        (total / n as f64, into / n as f64, count as f64 / n as f64)
+    };
+    let aim = 0.3;
+    let aimed = Emitter::global_aimed(&scene, 1000, 32.0, 0, aim);
+    let (total, into, share) = sums(&aimed);
+    let power = 4.0 * std::f64::consts::PI * intensity;
+    assert!(
+        (total / power - 1.0).abs() < 0.005,
+        "{total} against {power}"
+    );
+    assert!(
+        (into / (intensity * omega) - 1.0).abs() < 0.005,
+        "{into} into the cone against {}",
+        intensity * omega
+    );
+    let expected = aim + (1.0 - aim) * omega / (4.0 * std::f64::consts::PI);
+    assert!(
+        (share - expected).abs() < 0.01,
+        "{share} against {expected}"
+    );
+    // Unaimed, a few emissions in a hundred go there.
+    let plain = Emitter::global(&scene, 1000, 32.0, 0);
+    let (plain_total, _, plain_share) = sums(&plain);
+    assert!((plain_total / power - 1.0).abs() < 0.005, "{plain_total}");
+    assert!(
+        plain_share < 0.05 && share > 5.0 * plain_share,
+        "{plain_share} {share}"
+    );
+    // Aim 0 is the plain emitter, emission for emission.
+    let zero = Emitter::global_aimed(&scene, 1000, 32.0, 0, 0.0);
+    for i in 0..100 {
+        let (a, b) = (
+            zero.emit(i, &mut Rng::new(3, i)).unwrap(),
+            plain.emit(i, &mut Rng::new(3, i)).unwrap(),
+        );
+        assert_eq!((a.ray.d, a.power, a.ray.dd), (b.ray.d, b.power, b.ray.dd));
+    }
+}
+
+/// The global map from aimed emissions holds the same light as from isotropic ones (their
+/// totals within four combined standard errors, as for aimed bounces above) with more photons
+/// through the glass: the canonical scene's caustic reflected off the floor into the sphere
+/// and back (L S+ D S+ D) rides on them.
+#[test]
+fn aimed_emissions_store_more_global_photons_carrying_the_same_light() {
+    use photondiff::embree::Device;
+    use photondiff::photons::emission::Emitter;
+    use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+    let scene = photondiff::scene::file::load_scene(Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    )))
+    .unwrap();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let emissions = 2_000_000;
+    let options = PhotonOptions::default();
+    let tracer = PhotonTracer::new(&scene, &embree, &options);
+    let map = |aim: f64| {
+        let emitter =
+            Emitter::global_aimed(&scene, options.global_photons, options.overlap, 0, aim);
+        let (map, counts) = tracer.build_map(
+            &emitter,
+            PathClass::Global,
+            StopRule::Emitted(emissions),
+            &indicatif::ProgressBar::hidden(),
+        );
+        assert_eq!(counts.emitted, emissions as u64);
+        let power: Vec<f64> = map.photons.iter().map(|p| f64::from(p.power.y)).collect();
+        let total: f64 = power.iter().sum();
+        let error = power.iter().map(|p| p * p).sum::<f64>().sqrt();
+        (map.len(), total, error)
+    };
+    let (plain_count, plain, plain_error) = map(0.0);
+    let (aimed_count, aimed, aimed_error) = map(0.3);
+    eprintln!(
+        "plain: {plain_count} photons, {plain:.5} +- {plain_error:.5}; aimed: {aimed_count} \
+         photons, {aimed:.5} +- {aimed_error:.5}"
+    );
+    assert!(plain_count > 100, "{plain_count} photons without aim");
+    assert!(
+        aimed_count as f64 > 1.3 * plain_count as f64,
+        "{aimed_count} photons from aimed emissions against {plain_count}"
+    );
+    let sigma = (plain_error * plain_error + aimed_error * aimed_error).sqrt();
+    assert!(
+        (aimed - plain).abs() <= 4.0 * sigma,
+        "aimed {aimed} against {plain} (standard error {sigma})"
+    );
+}

@@ -94,13 +94,15 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
             );
         }
     }
-    // One camera ray a pixel and, this being a long run (3 passes), 15 more per edge pixel;
-    // the corner rays that found the edge pixels are the run's, once, not a pass's.
+    // One camera ray a pixel and, this being a long run (3 passes), the rest of the long
+    // run's edge grid per edge pixel (63 more for 8 x 8); the corner rays that found the edge
+    // pixels are the run's, once, not a pass's.
     let edges = stats["edge_pixels"].as_u64().unwrap();
     assert!(edges > 0 && edges.is_multiple_of(3), "{edges}");
+    let grid = u64::from(photondiff::render::passes::LONG_RUN_EDGE_GRID);
     assert_eq!(
         named("C", "rays")[0]["args"]["camera"],
-        64 * 48 + 15 * edges / 3
+        64 * 48 + (grid * grid - 1) * edges / 3
     );
     let named_threads: Vec<&Value> = named("M", "thread_name")
         .iter()

@@ -31,8 +31,8 @@ pub struct PhotonsArgs {
     /// Photon footprint size (as `render --overlap`).
     #[arg(long, value_name = "X", default_value_t = 32.0)]
     overlap: f64,
-    /// Share of the global photons' diffuse bounces aimed at the mirror and glass objects
-    /// (as `render --global-aim`; the default is the default render's, 0.15: maps for
+    /// Share of the global photons' diffuse bounces (and a third of it, of their emissions)
+    /// aimed at the mirror and glass objects (as `render --global-aim`; the default is the default render's, 0.15: maps for
     /// `--estimator pd` and the thesis's other estimators take `--global-aim 0`).
     #[arg(long, value_name = "P", default_value_t = photondiff::render::passes::DEFAULT_GLOBAL_AIM)]
     global_aim: f64,

@@ -113,8 +113,11 @@ pub struct RenderArgs {
     /// Share of the global photons' diffuse bounces aimed at the mirror and glass objects
     /// (the rest follow the cosine lobe; powers are weighted so the map's expected value is
     /// unchanged): in [0, 1), 0 aims none. It carries the light that goes floor -> glass ->
-    /// floor in an open scene with many more photons. Default 0.15 for `integrated` (the
-    /// default estimator), 0 for the others (the thesis's photon maps).
+    /// floor in an open scene with many more photons. A third of the share also aims the
+    /// global photons' emissions from point and spot lights at those objects (light that
+    /// reaches a surface through glass and goes on from there: a caustic's reflection off a
+    /// wall). Default 0.15 for `integrated` (the default estimator), 0 for the others (the
+    /// thesis's photon maps).
     #[arg(long, value_name = "P")]
     global_aim: Option<f64>,
     /// Whether each photon's footprint is probed for walls and edges (16 rays a photon), and a

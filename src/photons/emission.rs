@@ -9,7 +9,9 @@
 //! footprints expected to cover a point (1 tiles the surface exactly; more trades blur for
 //! noise, as `k` does in the regular estimate).
 //!
-//! Global photons sample every light in proportion to its power. Caustic photons are aimed at
+//! Global photons sample every light in proportion to its power ([`Emitter::global_aimed`]
+//! sends a share of a point or spot light's towards the specular objects, weighted by the
+//! mixture's density). Caustic photons are aimed at
 //! the bounding spheres of the specular meshes (a projection map): each light-sphere pair gets a
 //! share of the photons proportional to the power the light sends into the sphere's cone, and
 //! each photon's power is divided by the density it was drawn with, so that photons stand for
@@ -60,6 +62,9 @@ pub struct Emitter {
     cdf: Vec<f64>,
     shift: [f64; 2],
     random: bool,
+    /// For an aimed global emitter ([`Emitter::global_aimed`]): `sqrt(overlap / (pi N))`, from
+    /// which each emission's spread follows its density; `None` for the others.
+    mixture_spread: Option<f64>,
 }
 
 impl Emitter {
@@ -95,6 +100,69 @@ impl Emitter {
             })
             .collect();
         Self::new(sources, seed)
+    }
+
+    /// [`Emitter::global`] with a share `aim` (in `[0, 1)`) of each point or spot light's
+    /// emissions drawn towards the specular meshes' bounding spheres instead of over the
+    /// light's whole cone (shared out among the spheres as [`Emitter::caustic`] shares its
+    /// photons). Every emission of such a light then carries the light's intensity over the
+    /// mixture's density in its direction, whichever part drew it, so the map stands for the
+    /// same light; and its beam is narrower where the mixture draws more densely, as the
+    /// emission differentials of a denser emission are. Quad lights, and every light when
+    /// `aim` is 0 or the scene has no specular mesh, emit as [`Emitter::global`] does.
+    ///
+    /// Light that reaches a diffuse surface through glass or a mirror and goes on from there
+    /// (a caustic's reflection off a wall, L S+ D D) otherwise rides only on the few global
+    /// photons whose isotropic direction happens to meet the specular object.
+    pub fn global_aimed(scene: &Scene, photons: usize, overlap: f64, seed: u64, aim: f64) -> Self {
+        let global = Self::global(scene, photons, overlap, seed);
+        let targets = specular_targets(scene);
+        if !(aim > 0.0 && aim < 1.0) || targets.is_empty() {
+            return global;
+        }
+        let mut sources = Vec::new();
+        for s in global.sources {
+            let position = match s.light {
+                Light::Point { position, .. } | Light::Spot { position, .. } => position,
+                Light::Quad { .. } => {
+                    sources.push(s);
+                    continue;
+                }
+            };
+            // Each sphere's share: the power the light sends into its cone.
+            let shares: Vec<(Target, f64)> = targets
+                .iter()
+                .map(|t| {
+                    let (axis, cos) = cone(position, t);
+                    (
+                        *t,
+                        cone_solid_angle(cos) * mean(s.light.intensity_towards(axis)),
+                    )
+                })
+                .filter(|&(_, w)| w > 0.0)
+                .collect();
+            let total: f64 = shares.iter().map(|&(_, w)| w).sum();
+            if total <= 0.0 {
+                sources.push(s);
+                continue;
+            }
+            sources.push(Source {
+                probability: s.probability * (1.0 - aim),
+                ..s
+            });
+            for (t, w) in shares {
+                sources.push(Source {
+                    light: s.light,
+                    target: Some(t),
+                    probability: s.probability * aim * w / total,
+                    spread: 0.0,
+                    cone: light_cone(&s.light, Some(&t)),
+                });
+            }
+        }
+        let mut emitter = Self::new(sources, seed);
+        emitter.mixture_spread = Some((overlap / (PI * photons.max(1) as f64)).sqrt());
+        emitter
     }
 
     /// Emission of caustic photons towards the bounding spheres of the specular meshes.
@@ -172,6 +240,7 @@ impl Emitter {
             cdf,
             shift: [rng.uniform(), rng.uniform()],
             random: false,
+            mixture_spread: None,
         }
     }
 
@@ -233,6 +302,9 @@ impl Emitter {
             Light::Point { position, .. } | Light::Spot { position, .. } => {
                 let cone = source.cone.expect("point and spot lights keep their cone");
                 let d = cone.sample(u, v);
+                if let Some(unit) = self.mixture_spread {
+                    return self.emit_mixture(&source.light, position, d, unit);
+                }
                 let power = match source.target {
                     None => {
                         source.light.intensity_towards(d)
@@ -258,6 +330,46 @@ impl Emitter {
                 radiance,
             } => self.emit_quad(source, [corner, edge_u, edge_v, radiance], (u, v), rng),
         }
+    }
+
+    /// An aimed global emitter's emission in direction `d` from the point or spot light
+    /// `light` at `position`: power and spread from the mixture's density in `d`.
+    fn emit_mixture(
+        &self,
+        light: &Light,
+        position: DVec3,
+        d: DVec3,
+        unit: f64,
+    ) -> Option<Emission> {
+        let pdf = self.mixture_pdf(light, d);
+        if pdf <= 0.0 {
+            return None;
+        }
+        let mut ray = RayDifferential::new(position, d);
+        let spread = unit / pdf.sqrt();
+        let (t1, t2) = tangent_frame(d);
+        ray.dd = [t1 * spread, t2 * spread];
+        Some(Emission {
+            ray,
+            power: light.intensity_towards(d) / pdf,
+        })
+    }
+
+    /// Density (per steradian, times the sources' probabilities) with which an aimed global
+    /// emitter draws direction `d` from the point or spot light `light`: its own cone's part
+    /// and every target cone holding `d`.
+    fn mixture_pdf(&self, light: &Light, d: DVec3) -> f64 {
+        self.sources
+            .iter()
+            .filter(|s| s.light == *light)
+            .filter_map(|s| {
+                let c = s.cone?;
+                // (With a little slack: a direction drawn from a cone can round to just
+                // outside it, and its own part must count.)
+                let inside = c.cos_max <= -1.0 || d.dot(c.axis) >= c.cos_max - 1e-12;
+                inside.then(|| s.probability / c.solid_angle())
+            })
+            .sum()
     }
 
     /// The emission of `source`, a quad light `[corner, edge_u, edge_v, radiance]`, at the

@@ -55,8 +55,10 @@ pub struct PhotonOptions {
     /// (their bounding spheres), the rest drawn from the cosine lobe, with powers weighted by
     /// the mixture's density ([`crate::photons::targets::DiffuseAim`]): in `[0, 1)`, 0 draws
     /// every bounce from the cosine lobe. Default 0 (the thesis's photon maps); the default
-    /// render uses [`crate::render::passes::DEFAULT_GLOBAL_AIM`]. (The final-gathering map and
-    /// the caustic map, which ends at its first diffuse hit, are not aimed.)
+    /// render uses [`crate::render::passes::DEFAULT_GLOBAL_AIM`]. A third of the share also
+    /// aims the global map's emissions from point and spot lights
+    /// ([`PhotonOptions::emission_aim`]). (The final-gathering map and the caustic map, which
+    /// ends at its first diffuse hit, are not aimed.)
     pub global_aim: f64,
     /// Whether the global map's photons are stored at every diffuse hit and made into a
     /// radiance map for final gathering ([`crate::photons::radiance_map`]) instead of a photon
@@ -113,6 +115,15 @@ impl PhotonOptions {
                 }
             }
         }
+    }
+
+    /// The share of the global photons' emissions from point and spot lights aimed at the
+    /// specular objects ([`crate::photons::emission::Emitter::global_aimed`]): a third of
+    /// [`PhotonOptions::global_aim`]. Aimed emissions carry the light that reaches a diffuse
+    /// surface through glass and goes on from there, but each costs several rays through the
+    /// glass, so a smaller share than the bounces' (README, "Photon maps").
+    pub fn emission_aim(&self) -> f64 {
+        self.global_aim / 3.0
     }
 
     /// The global map's overlap: `overlap * global_area_scale`.
