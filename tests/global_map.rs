@@ -112,12 +112,11 @@ fn the_global_map_holds_the_photons_asked_for_or_says_why_not() {
     assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
 }
 
-/// In the canonical (open) scene global photons are light that went floor -> glass sphere ->
-/// floor. Aiming half the diffuse bounces at the sphere stores many more of them for the same
-/// emissions, and the map carries the same power (the weights undo the aim): the two totals
-/// agree within four of their combined standard errors.
-#[test]
-fn aimed_bounces_store_more_global_photons_carrying_the_same_light() {
+/// The canonical scene's global map from 2,000,000 emissions with a share `bounce_aim` of its
+/// diffuse bounces and `emission_aim` of its emissions aimed at the glass: its photon count,
+/// the total power and that total's standard error (each emission adds its photons' powers;
+/// with few photons per emission the variance of the sum is about the sum of their squares).
+fn canonical_global_map(bounce_aim: f64, emission_aim: f64) -> (usize, f64, f64) {
     use photondiff::embree::Device;
     use photondiff::photons::emission::Emitter;
     use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
@@ -129,27 +128,33 @@ fn aimed_bounces_store_more_global_photons_carrying_the_same_light() {
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let emissions = 2_000_000;
-    let map = |aim: f64| {
-        let options = PhotonOptions {
-            global_aim: aim,
-            ..PhotonOptions::default()
-        };
-        let tracer = PhotonTracer::new(&scene, &embree, &options);
-        let emitter = Emitter::global(&scene, options.global_photons, options.overlap, 0);
-        let (map, counts) = tracer.build_map(
-            &emitter,
-            PathClass::Global,
-            StopRule::Emitted(emissions),
-            &indicatif::ProgressBar::hidden(),
-        );
-        assert_eq!(counts.emitted, emissions as u64);
-        // The total and its standard error: each emission adds its photons' powers; with few
-        // photons per emission the variance of the sum is about the sum of their squares.
-        let power: Vec<f64> = map.photons.iter().map(|p| f64::from(p.power.y)).collect();
-        let total: f64 = power.iter().sum();
-        let error = power.iter().map(|p| p * p).sum::<f64>().sqrt();
-        (map.len(), total, error)
+    let options = PhotonOptions {
+        global_aim: bounce_aim,
+        ..PhotonOptions::default()
     };
+    let tracer = PhotonTracer::new(&scene, &embree, &options);
+    let (photons, overlap) = (options.global_photons, options.overlap);
+    let emitter = Emitter::global_aimed(&scene, photons, overlap, 0, emission_aim);
+    let (map, counts) = tracer.build_map(
+        &emitter,
+        PathClass::Global,
+        StopRule::Emitted(emissions),
+        &indicatif::ProgressBar::hidden(),
+    );
+    assert_eq!(counts.emitted, emissions as u64);
+    let power: Vec<f64> = map.photons.iter().map(|p| f64::from(p.power.y)).collect();
+    let total: f64 = power.iter().sum();
+    let error = power.iter().map(|p| p * p).sum::<f64>().sqrt();
+    (map.len(), total, error)
+}
+
+/// In the canonical (open) scene global photons are light that went floor -> glass sphere ->
+/// floor. Aiming half the diffuse bounces at the sphere stores many more of them for the same
+/// emissions, and the map carries the same power (the weights undo the aim): the two totals
+/// agree within four of their combined standard errors.
+#[test]
+fn aimed_bounces_store_more_global_photons_carrying_the_same_light() {
+    let map = |aim: f64| canonical_global_map(aim, 0.0);
     let (plain_count, plain, plain_error) = map(0.0);
     let (aimed_count, aimed, aimed_error) = map(0.5);
     assert!(plain_count > 100, "{plain_count} photons without aim");
@@ -247,34 +252,7 @@ fn aimed_emissions_carry_the_lights_power_and_favour_the_specular_objects() {
 /// and back (L S+ D S+ D) rides on them.
 #[test]
 fn aimed_emissions_store_more_global_photons_carrying_the_same_light() {
-    use photondiff::embree::Device;
-    use photondiff::photons::emission::Emitter;
-    use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
-    let scene = photondiff::scene::file::load_scene(Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/caustic-sphere.toml"
-    )))
-    .unwrap();
-    let device = Device::new().unwrap();
-    let embree = scene.build_embree(&device).unwrap();
-    let emissions = 2_000_000;
-    let options = PhotonOptions::default();
-    let tracer = PhotonTracer::new(&scene, &embree, &options);
-    let map = |aim: f64| {
-        let emitter =
-            Emitter::global_aimed(&scene, options.global_photons, options.overlap, 0, aim);
-        let (map, counts) = tracer.build_map(
-            &emitter,
-            PathClass::Global,
-            StopRule::Emitted(emissions),
-            &indicatif::ProgressBar::hidden(),
-        );
-        assert_eq!(counts.emitted, emissions as u64);
-        let power: Vec<f64> = map.photons.iter().map(|p| f64::from(p.power.y)).collect();
-        let total: f64 = power.iter().sum();
-        let error = power.iter().map(|p| p * p).sum::<f64>().sqrt();
-        (map.len(), total, error)
-    };
+    let map = |aim: f64| canonical_global_map(0.0, aim);
     let (plain_count, plain, plain_error) = map(0.0);
     let (aimed_count, aimed, aimed_error) = map(0.3);
     eprintln!(
