@@ -13,7 +13,7 @@ use photondiff::photons::emission::Emitter;
 use photondiff::photons::footprint::Footprint;
 use photondiff::photons::map::{PathClass, PhotonMap};
 use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
-use photondiff::photons::walls::{nearest_wall, nearest_walls, Wall, Walls};
+use photondiff::photons::walls::{nearest_walls, Wall, Walls};
 use photondiff::scene::file::parse_scene;
 use photondiff::scene::Scene;
 use std::f64::consts::PI;
@@ -116,7 +116,8 @@ fn wall_near(scene: &Scene, at: DVec3, normal: DVec3, r: f64) -> Option<Wall> {
     let probed = nearest_walls(&embree, at, normal, &round(r), scene.ray_epsilon());
     let screened = Walls::new(&embree).nearest(at, normal, &round(r), scene.ray_epsilon());
     assert_eq!(probed, screened, "at {at}, radius {r}");
-    let nearest = nearest_wall(&embree, at, normal, &round(r), scene.ray_epsilon());
+    let nearest =
+        nearest_walls(&embree, at, normal, &round(r), scene.ray_epsilon()).map(|w| w.first);
     assert_eq!(nearest, probed.map(|p| p.first));
     nearest
 }

@@ -133,11 +133,8 @@ impl Emitter {
             let shares: Vec<(Target, f64)> = targets
                 .iter()
                 .map(|t| {
-                    let (axis, cos) = cone(position, t);
-                    (
-                        *t,
-                        cone_solid_angle(cos) * mean(s.light.intensity_towards(axis)),
-                    )
+                    let (omega, intensity) = cone_towards(&s.light, position, t);
+                    (*t, omega * intensity)
                 })
                 .filter(|&(_, w)| w > 0.0)
                 .collect();
@@ -173,13 +170,8 @@ impl Emitter {
         for light in &scene.lights {
             for t in &targets {
                 let (w, weight) = match *light {
-                    Light::Point {
-                        position,
-                        intensity,
-                    } => (cone_solid_angle(cone(position, t).1), mean(intensity)),
-                    Light::Spot { position, .. } => {
-                        let (axis, cos) = cone(position, t);
-                        (cone_solid_angle(cos), mean(light.intensity_towards(axis)))
+                    Light::Point { position, .. } | Light::Spot { position, .. } => {
+                        cone_towards(light, position, t)
                     }
                     Light::Quad {
                         corner,
@@ -270,7 +262,7 @@ impl Emitter {
     /// in one of the light's target cones. A light tracer that traces caustic paths with this
     /// emitter skips such directions of its global paths, so that no direction is counted twice.
     pub fn covers(&self, light: &Light, from: DVec3, d: DVec3) -> bool {
-        self.cone_pdf(from, light, d) > 0.0
+        self.density(from, light, d) > 0.0
     }
 
     /// [`Emitter::emit`], with the light the emission left.
@@ -311,8 +303,7 @@ impl Emitter {
                             * (cone.solid_angle() / source.probability)
                     }
                     Some(_) => {
-                        source.light.intensity_towards(d)
-                            / self.cone_pdf(position, &source.light, d)
+                        source.light.intensity_towards(d) / self.density(position, &source.light, d)
                     }
                 };
                 let mut ray = RayDifferential::new(position, d);
@@ -341,7 +332,7 @@ impl Emitter {
         d: DVec3,
         unit: f64,
     ) -> Option<Emission> {
-        let pdf = self.mixture_pdf(light, d);
+        let pdf = self.density(position, light, d);
         if pdf <= 0.0 {
             return None;
         }
@@ -353,23 +344,6 @@ impl Emitter {
             ray,
             power: light.intensity_towards(d) / pdf,
         })
-    }
-
-    /// Density (per steradian, times the sources' probabilities) with which an aimed global
-    /// emitter draws direction `d` from the point or spot light `light`: its own cone's part
-    /// and every target cone holding `d`.
-    fn mixture_pdf(&self, light: &Light, d: DVec3) -> f64 {
-        self.sources
-            .iter()
-            .filter(|s| s.light == *light)
-            .filter_map(|s| {
-                let c = s.cone?;
-                // (With a little slack: a direction drawn from a cone can round to just
-                // outside it, and its own part must count.)
-                let inside = c.cos_max <= -1.0 || d.dot(c.axis) >= c.cos_max - 1e-12;
-                inside.then(|| s.probability / c.solid_angle())
-            })
-            .sum()
     }
 
     /// The emission of `source`, a quad light `[corner, edge_u, edge_v, radiance]`, at the
@@ -401,7 +375,7 @@ impl Emitter {
                 if cos_light <= 0.0 {
                     return None;
                 }
-                let pdf = self.cone_pdf(y, &source.light, d) / area;
+                let pdf = self.density(y, &source.light, d) / area;
                 (d, radiance * (cos_light / pdf))
             }
         };
@@ -411,23 +385,38 @@ impl Emitter {
         Some(Emission { ray, power })
     }
 
-    /// Density (per steradian, times the probability of the light's sources) of drawing the
-    /// caustic direction `d` from `from` for `light`: every target cone holding `d` contributes.
-    fn cone_pdf(&self, from: DVec3, light: &Light, d: DVec3) -> f64 {
+    /// Density (per steradian, times the sources' probabilities) with which this emitter draws
+    /// direction `d` leaving `from` on `light`: every cone of the light's sources holding `d`
+    /// contributes (a caustic emitter's target cones; an aimed global emitter's also the
+    /// light's own cone). A quad light's own emission, from the cosine lobe, has no cone and
+    /// is not counted.
+    fn density(&self, from: DVec3, light: &Light, d: DVec3) -> f64 {
         self.sources
             .iter()
             .filter(|s| s.light == *light)
             .filter_map(|s| {
-                let target = s.target.as_ref()?;
-                // A point or spot light's cones are fixed (`from` is the light's position).
-                let (axis, cos_max) = match s.cone {
-                    Some(c) => (c.axis, c.cos_max),
-                    None => cone(from, target),
+                // A point or spot light's cones are fixed (`from` is the light's position); a
+                // quad light's target cones start at each emission's point.
+                let (axis, cos_max) = match (s.cone, &s.target) {
+                    (Some(c), _) => (c.axis, c.cos_max),
+                    (None, Some(t)) => cone(from, t),
+                    (None, None) => return None,
                 };
-                (d.dot(axis) >= cos_max).then(|| s.probability / cone_solid_angle(cos_max))
+                // (With a little slack: a direction drawn from a cone can round to just
+                // outside it, and its own part must count.)
+                let inside = cos_max <= -1.0 || d.dot(axis) >= cos_max - 1e-12;
+                inside.then(|| s.probability / cone_solid_angle(cos_max))
             })
             .sum()
     }
+}
+
+/// The solid angle of `target`'s cone seen from a point or spot light at `position`, and the
+/// mean intensity the light sends along the cone's axis: what a light-target pair's share of
+/// aimed photons is weighed by (their product is about the power it sends into the cone).
+fn cone_towards(light: &Light, position: DVec3, target: &Target) -> (f64, f64) {
+    let (axis, cos) = cone(position, target);
+    (cone_solid_angle(cos), mean(light.intensity_towards(axis)))
 }
 
 /// The cone a point or spot light's photons are drawn from: towards `target` if given, else

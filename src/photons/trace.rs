@@ -119,11 +119,16 @@ impl PhotonOptions {
 
     /// The share of the global photons' emissions from point and spot lights aimed at the
     /// specular objects ([`crate::photons::emission::Emitter::global_aimed`]): a third of
-    /// [`PhotonOptions::global_aim`]. Aimed emissions carry the light that reaches a diffuse
-    /// surface through glass and goes on from there, but each costs several rays through the
-    /// glass, so a smaller share than the bounces' (README, "Photon maps").
+    /// [`PhotonOptions::global_aim`]; none for the final-gathering map, whose bounces are not
+    /// aimed either. Aimed emissions carry the light that reaches a diffuse surface through
+    /// glass and goes on from there, but each costs several rays through the glass, so a
+    /// smaller share than the bounces' (README, "Photon maps").
     pub fn emission_aim(&self) -> f64 {
-        self.global_aim / 3.0
+        if self.radiance_map {
+            0.0
+        } else {
+            self.global_aim / 3.0
+        }
     }
 
     /// The global map's overlap: `overlap * global_area_scale`.

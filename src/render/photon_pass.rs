@@ -44,18 +44,12 @@ pub fn trace_photon_maps(
                 StopRule::Stored(options.caustic_photons),
                 &bar,
             );
-            // The final-gathering map's emissions are not aimed (as its bounces are not).
-            let aim = if options.radiance_map {
-                0.0
-            } else {
-                options.emission_aim()
-            };
             let global_emitter = Emitter::global_aimed(
                 scene,
                 options.global_photons,
                 options.global_overlap(),
                 options.seed,
-                aim,
+                options.emission_aim(),
             );
             let stop = StopRule::Stored(options.global_photons);
             if options.radiance_map {

@@ -77,7 +77,7 @@ const SECTOR_CENTRES: [(f64, f64); SECTORS] = {
     ]
 };
 
-/// Walls of different lines checked for a photon, nearest first (see [`nearest_wall`]).
+/// Walls of different lines checked for a photon, nearest first (see [`nearest_walls`]).
 const CHECKED: usize = 3;
 
 /// A probe stops at a face more than 45 degrees off the photon's plane (the cosine of the angle
@@ -177,17 +177,6 @@ pub fn nearest_walls(
     // box's top, over two rims that meet).
     let second = standing.find(|w| w.normal.dot(first.normal).abs() < MAX_SQUARE_COS);
     Some(WallPair { first, second })
-}
-
-/// [`nearest_walls`]' nearest wall alone.
-pub fn nearest_wall(
-    embree: &embree::Scene,
-    position: DVec3,
-    normal: DVec3,
-    footprint: &Footprint,
-    epsilon: f64,
-) -> Option<Wall> {
-    nearest_walls(embree, position, normal, footprint, epsilon).map(|w| w.first)
 }
 
 #[cfg(test)]
