@@ -40,10 +40,11 @@ pub struct RenderArgs {
     /// does not spread one surface's light over the part of the pixel another hides; final
     /// gathering spends the pixel's --gather-rays over its cells. Costs one corner ray per pixel
     /// (once a run) plus the edge pixels' cells. Default 4 with final gathering (--gather-rays
-    /// above 0), where the gather rays dominate and it costs a few percent, and for a long run of
+    /// above 0), where the gather rays dominate and it costs a few percent; 8 for a long run of
     /// `integrated` (--time-budget, --target-noise or more than 2 passes), where it removes a
-    /// bias at occluding edges that the passes never would; 1 (off) otherwise; at most
-    /// --view-grid is off.
+    /// bias at occluding edges that the passes never would (8 rather than 4: every cell takes
+    /// the pass's jitter, and finer cells halve the pass-to-pass wobble that grid gives edge
+    /// pixels); 1 (off) otherwise; at most --view-grid is off.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
     edge_grid: Option<u32>,
     /// Worker threads (0 = one per core).
