@@ -4,6 +4,7 @@
 //!
 //! Run: `cargo bench --bench speed_vs_error`. Writes `out/speed_vs_error.{csv,svg,png}` and
 //! `out/caustic_crops.png`. Environment as for the timing table (`PHOTONDIFF_REFERENCE_PATHS`,
+//! default 2*10^8, `PHOTONDIFF_REFERENCE_LIGHT_PATHS`, default 2*10^9: the same cached reference,
 //! `PHOTONDIFF_THREADS`).
 
 use photondiff::embree::Device;
@@ -44,7 +45,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let device = Device::new()?;
     let embree = scene.build_embree(&device)?;
     let threads = env("PHOTONDIFF_THREADS", 0) as usize;
-    let paths = env("PHOTONDIFF_REFERENCE_PATHS", 1_000_000_000);
+    // The reference the timing table, `default_render` and `convergence` use (one cache).
+    let paths = env("PHOTONDIFF_REFERENCE_PATHS", 200_000_000);
+    let light_paths = env("PHOTONDIFF_REFERENCE_LIGHT_PATHS", 2_000_000_000);
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()?;
@@ -55,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             &out.join("reference"),
             "caustic-sphere",
             &photondiff::reference::cache::ReferenceSettings {
-                light_paths: paths,
+                light_paths,
                 caustic_paths: paths,
                 ..Default::default()
             },
@@ -135,7 +138,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "\n## Speed against error: canonical scene, 640 x 480, {} threads\n",
         pool.current_num_threads()
     );
-    println!("relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R), against a reference of direct light on 16x16 and 17x17 rays per pixel plus {paths} + {paths} caustic light paths for the rest (noise: caustic {:.4}, floor {:.4}).\n",
+    println!("relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R), against a reference of direct light on 16x16 and 17x17 rays per pixel plus {light_paths} + {paths} caustic light paths for the rest (noise: caustic {:.4}, floor {:.4}).\n",
         reference.relative_noise(&regions.caustic), reference.relative_noise(&regions.diffuse));
     println!("| method | photons | render s | relRMSE caustic | relRMSE floor | relRMSE contour | SSIM | Pareto |");
     println!("|---|---|---|---|---|---|---|---|");

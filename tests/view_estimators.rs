@@ -270,3 +270,63 @@ fn no_estimator_produces_nan_infinite_or_negative_radiance() {
         }
     }
 }
+
+/// The coplanar estimate takes its photons from the footprint estimators' screen
+/// ([`PhotonMap::covering`]), not from every photon whose box is near: it must equal the same
+/// sum over every photon of the map, also where the query's plane is tilted against the
+/// photons' (a curved surface). There the polygon, projected along the query's normal, may
+/// meet the view footprint where the kernel (along the photon's) does not reach it; such a
+/// photon is screened out, but its kernel at the intersection's centroid is zero anyway.
+#[test]
+fn coplanar_estimate_equals_its_sum_over_every_photon() {
+    use photondiff::estimate::coplanar::coverage;
+    use photondiff::estimate::{on_query_surface, photon_kernel};
+    use photondiff::geometry::polygon::{ellipse, parallelogram};
+    use photondiff::geometry::sampling::tangent_frame;
+    let mut lit = 0;
+    for scale in [0.2, 1.0, 4.0] {
+        let (map, queries) = caustic_queries(scale);
+        let coplanar = CoplanarEstimate {
+            map: &map,
+            ellipse_vertices: 16,
+        };
+        for (k, q) in queries.iter().enumerate() {
+            for degrees in [0.0f64, 3.0, 10.0] {
+                let t = degrees.to_radians();
+                let turn = if k % 2 == 0 { DVec3::X } else { DVec3::Z };
+                let mut q = *q;
+                q.normal = (DVec3::Y * t.cos() + turn * t.sin()).normalize();
+                // The footprint in the tilted plane.
+                q.footprint = q.footprint.map(|f| f - q.normal * f.dot(q.normal));
+                let (t1, t2) = tangent_frame(q.normal);
+                let to_2d = |v: DVec3| DVec2::new(v.dot(t1), v.dot(t2));
+                let view = parallelogram(DVec2::ZERO, to_2d(q.footprint[0]), to_2d(q.footprint[1]));
+                let n = q.normal.as_vec3();
+                let mut sum = DVec3::ZERO;
+                for p in &map.photons {
+                    if !on_query_surface(p, q.position.as_vec3() - p.position, n) {
+                        continue;
+                    }
+                    let axis = |m: glam::Vec3| to_2d((m / m.length_squared()).as_dvec3());
+                    let centre = to_2d(p.position.as_dvec3() - q.position);
+                    let polygon = ellipse(centre, axis(p.m[0]), axis(p.m[1]), 16);
+                    let (w, c) = coverage(&polygon, &view);
+                    if w > 0.0 {
+                        let c = q.position + t1 * c.x + t2 * c.y;
+                        if let Some(k) = photon_kernel(p, c.as_vec3() - p.position, n) {
+                            sum += (k * w as f32).as_dvec3();
+                        }
+                    }
+                }
+                let expected = q.albedo * std::f64::consts::FRAC_1_PI * sum;
+                let got = coplanar.radiance(&q, &mut GatherCounts::default());
+                lit += usize::from(expected.length() > 0.0);
+                assert!(
+                    (got - expected).length() <= 1e-5 * expected.length() + 1e-12,
+                    "scale {scale}, tilt {degrees}, query {k}: {got} against {expected}"
+                );
+            }
+        }
+    }
+    assert!(lit > 300, "{lit}");
+}

@@ -83,7 +83,11 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
             if scratch.unit.len() != self.ellipse_vertices.max(3) {
                 scratch.unit = unit_circle(self.ellipse_vertices);
             }
-            self.map.reaching(q.position, reach, &mut scratch.found);
+            // Only photons whose kernel may reach the view footprint (the exact disc against
+            // parallelogram screen of the footprint estimators): the cube of the footprint's
+            // reach let through four times as many, each clipped as a polygon for nothing.
+            self.map
+                .covering(q.position, &q.footprint, &mut scratch.found);
             counts.photons_found += scratch.found.len() as u64;
             let mut sum = Vec3::ZERO;
             for &i in &scratch.found {

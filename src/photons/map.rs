@@ -151,14 +151,6 @@ impl PhotonMap {
             - self.mirror_power
     }
 
-    /// Indices (any order) of a superset of the photons whose footprint, grown by `reach`, may
-    /// cover `x`: every photon whose footprint box ([`footprint_box`]: its ellipse and the
-    /// tolerance off its plane) overlaps the cube `x +- reach`. The estimators test each exactly.
-    pub fn reaching(&self, x: DVec3, reach: f64, out: &mut Vec<u32>) {
-        out.clear();
-        self.bvh.overlapping(&reach_box(x, reach), out);
-    }
-
     /// Indices (in map order) of a superset of the photons whose kernel may be non-zero
     /// somewhere in the view footprint `x +- f[0]/2 +- f[1]/2` (zero for a point) for a query
     /// point `x` on their surface: in every BVH leaf whose bounds overlap the footprint's
@@ -200,16 +192,6 @@ impl PhotonMap {
                 .map(|n| (n.distance, n.item)),
         );
     }
-}
-
-/// The cube `x +- reach` (a non-finite or negative reach counts as zero), as [`rounded_out`].
-fn reach_box(x: DVec3, reach: f64) -> Aabb {
-    let reach = if reach.is_finite() {
-        reach.max(0.0)
-    } else {
-        0.0
-    };
-    rounded_out(x - reach, x + reach)
 }
 
 /// The f32 box that holds the f64 box `lo..hi`.
