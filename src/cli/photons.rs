@@ -24,7 +24,7 @@ pub struct PhotonsArgs {
     #[arg(long = "photons", value_name = "N", default_value_t = photondiff::render::passes::DEFAULT_GLOBAL_PHOTONS)]
     global_photons: usize,
     /// Photons stored in the caustic map (as `render --caustic-photons`; the default is the
-    /// default render's, 70,000: maps for `--estimator pd` and the thesis's other estimators
+    /// default render's, 60,000: maps for `--estimator pd` and the thesis's other estimators
     /// at their default take `--caustic-photons 20000`).
     #[arg(long, value_name = "N", default_value_t = photondiff::render::passes::DEFAULT_CAUSTIC_PHOTONS)]
     caustic_photons: usize,

@@ -83,7 +83,7 @@ pub struct RenderArgs {
     /// `integrated` (the default estimator), 100,000 (the thesis's count) for the others.
     #[arg(long = "photons", value_name = "N")]
     global_photons: Option<usize>,
-    /// Photons stored in the caustic map (of each pass). Default 70,000 for `integrated` (the
+    /// Photons stored in the caustic map (of each pass). Default 60,000 for `integrated` (the
     /// default estimator) and 20,000 (the thesis's count) for the others.
     #[arg(long, value_name = "N")]
     caustic_photons: Option<usize>,

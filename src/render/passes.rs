@@ -62,10 +62,13 @@ pub const DEFAULT_PASSES: u64 = 2;
 
 /// Caustic photons per pass of the default estimator, `integrated` (the others default to the
 /// thesis's 20,000): the default render's caustic error is mostly its photons' noise and the
-/// bias of their footprints, both of which more photons per pass cut; 70,000 keeps the default
-/// within 3x Regular 1x1's time now that its global map holds aimed photons (README, "The
-/// default").
-pub const DEFAULT_CAUSTIC_PHOTONS: usize = 70_000;
+/// bias of their footprints, both of which more photons per pass cut. 60,000 keeps the default
+/// within 3x Regular 1x1's whole-process time with a margin (stop 31, alternated, median of 9:
+/// 2.86x against 3.06x with 70,000, which missed the target in three runs that day; floor 2.99%
+/// -> 3.40%, caustic 2.72% -> 3.13%, contour 1.02% -> 1.19%, all far inside their targets;
+/// README, "The default"). Cutting the global photons instead would save as much, but
+/// final gathering's radiance map takes its photon count from the same default.
+pub const DEFAULT_CAUSTIC_PHOTONS: usize = 60_000;
 
 /// Shadow rays per point or spot light, along each axis, over the footprint of a directly seen
 /// hit for the default estimator, `integrated` ([`crate::render::direct_light`]; 1 for the
