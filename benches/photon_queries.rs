@@ -1,6 +1,6 @@
 //! Photon queries against the photon count: for 2 x 10^4 to 1.28 x 10^6 caustic photons on the
-//! canonical scene, the footprint BVH's build time and, for `pd`, multi-sampled 8x8 and
-//! `integrated`, one pass's render stage and the photons the queries found and used per gather.
+//! canonical scene, the footprint BVH's build time and, for `pd`, multi-sampled 8x8,
+//! `integrated` and coplanar, one pass's render stage and the photons the queries found and used per gather.
 //!
 //! Targets (issue 12): found at most 2x used; the render stage at 1.28M photons at most 3x its
 //! time at 20k (same settings, one pass); the build of 1.28M photons well under 0.5 s.
@@ -32,6 +32,7 @@ fn main() {
         ("pd", EstimatorKind::Pd),
         ("multisampled 8x8", EstimatorKind::Multisampled),
         ("integrated", EstimatorKind::Integrated),
+        ("coplanar", EstimatorKind::Coplanar),
     ];
     println!("## Photon queries against caustic photons (canonical scene, one pass, 2 threads)\n");
     println!("| caustic photons | map build s | estimator | render s | x 20k | found / used per gather | found / used |");

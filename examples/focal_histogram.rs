@@ -5,7 +5,7 @@
 //! focus that falls in the two pixels the focus lies between, (79, 66) and (80, 66), for boxes
 //! of 2k x (2k + 1) pixels around them. The same shares of an image (its radiance summed over
 //! the same pixels) tell whether a render concentrates the focus as the photons do
-//! (README, "The focal caustic's floor is two pixels").
+//! (`docs/history.md`, "The focal caustic's floor is two pixels").
 //!
 //! Run: `cargo run --release --example focal_histogram`
 
