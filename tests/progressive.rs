@@ -445,6 +445,11 @@ fn pass_options_are_validated_with_one_line_errors() {
             "-0.5",
             "--global-alpha must be in (0, 1), got -0.5",
         ),
+        (
+            "--threads",
+            "100000",
+            "--threads must be at most 1024 (0 = one per core), got 100000",
+        ),
     ];
     for (option, value, message) in cases {
         let out = photondiff(&["render", "--quiet", option, value, scene]);

@@ -11,6 +11,21 @@ pub mod report;
 
 use std::path::Path;
 
+/// The most worker threads `--threads` takes: far beyond any machine this runs on, and low
+/// enough that asking for a typo's worth (100000) is refused in one line instead of the
+/// operating system failing thread after thread.
+pub const MAX_THREADS: usize = 1024;
+
+/// Checks `--threads` (0 = one per core).
+pub fn check_threads(threads: usize) -> Result<usize, String> {
+    if threads > MAX_THREADS {
+        return Err(format!(
+            "--threads must be at most {MAX_THREADS} (0 = one per core), got {threads}"
+        ));
+    }
+    Ok(threads)
+}
+
 /// Creates the folder that will hold `path`, if it has one.
 pub fn create_parent(path: &Path) -> Result<(), String> {
     match path.parent() {

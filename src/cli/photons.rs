@@ -45,7 +45,7 @@ pub struct PhotonsArgs {
     /// Seed of the photons' random streams (as `render --seed`).
     #[arg(long, value_name = "S", default_value_t = 0)]
     seed: u64,
-    /// Worker threads (0 = one per core); the maps are identical for any count.
+    /// Worker threads (0 = one per core; at most 1024); the maps are identical for any count.
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
     /// No progress bar.
@@ -55,6 +55,7 @@ pub struct PhotonsArgs {
 
 /// Runs `photondiff photons`.
 pub fn run(args: &PhotonsArgs) -> Result<(), String> {
+    super::check_threads(args.threads)?;
     if !(args.overlap.is_finite() && args.overlap > 0.0) {
         return Err(format!(
             "--overlap must be a positive number, got {}",

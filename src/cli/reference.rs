@@ -30,7 +30,7 @@ pub struct ReferenceArgs {
     /// Camera rays per pixel along each axis for the direct light of half A and half B.
     #[arg(long, value_name = "A,B", value_delimiter = ',', default_values_t = [16, 17])]
     direct_grids: Vec<u32>,
-    /// Worker threads (0 = one per core).
+    /// Worker threads (0 = one per core; at most 1024).
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
     /// Seed of the light paths. References of one scene made with the same settings and
@@ -111,6 +111,7 @@ fn read_parts(parts: &[PathBuf]) -> Result<(Vec<Reference>, String), String> {
 
 /// Runs `photondiff reference`.
 pub fn run(args: &ReferenceArgs) -> Result<(), String> {
+    super::check_threads(args.threads)?;
     let grids = match args.direct_grids[..] {
         [a, b] if a != b && (1..=64).contains(&a) && (1..=64).contains(&b) => [a, b],
         _ => {

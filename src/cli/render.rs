@@ -47,7 +47,7 @@ pub struct RenderArgs {
     /// pixels); 1 (off) otherwise; at most --view-grid is off.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
     edge_grid: Option<u32>,
-    /// Worker threads (0 = one per core).
+    /// Worker threads (0 = one per core; at most 1024).
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
     /// Seed of every random stream; the same seed gives a bit-identical image on any thread count.
@@ -519,6 +519,7 @@ fn estimator_kind(args: &RenderArgs) -> EstimatorKind {
 
 /// Checks the pass options and turns them into stop rules (for photon estimates and `direct`).
 fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
+    super::check_threads(args.threads)?;
     let passes = match &args.passes {
         None => None,
         Some(text) => match text.trim().parse::<u64>() {
