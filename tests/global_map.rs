@@ -44,21 +44,22 @@ edge_v = [0.0, 0.0, 4.0]
 material = "white"
 "#;
 
-/// Renders `scene` with `--photons photons`; returns standard error, the global map's
-/// statistics and the image.
-fn render(dir: &Path, scene: &str, photons: usize) -> (String, serde_json::Value, Film) {
+/// Renders `scene` with `--photons photons` (or the default count for `None`); returns standard
+/// error, the global map's statistics and the image.
+fn render(dir: &Path, scene: &str, photons: Option<usize>) -> (String, serde_json::Value, Film) {
     let file = dir.join("scene.toml");
     std::fs::write(&file, scene).unwrap();
     let exr = dir.join("img.exr");
     let stats = dir.join("stats.json");
     let out = Command::new(env!("CARGO_BIN_EXE_photondiff"))
         .args(["render", "--quiet", "--estimator", "pd", "--threads", "1"])
-        .args([
-            "--photons",
-            &photons.to_string(),
-            "--caustic-photons",
-            "100",
-        ])
+        .args(
+            photons
+                .map(|n| ["--photons".to_string(), n.to_string()])
+                .into_iter()
+                .flatten(),
+        )
+        .args(["--caustic-photons", "100"])
         .arg("-o")
         .arg(&exr)
         .arg("--stats-json")
@@ -85,7 +86,7 @@ fn the_global_map_holds_the_photons_asked_for_or_says_why_not() {
     let dir = tempfile::tempdir().unwrap();
 
     // Floor and ceiling: every emission that reaches the floor may bounce to the ceiling.
-    let (stderr, global, _) = render(dir.path(), &format!("{HEAD}{CEILING}"), 2000);
+    let (stderr, global, _) = render(dir.path(), &format!("{HEAD}{CEILING}"), Some(2000));
     assert!(global["stored"].as_u64().unwrap() >= 2000, "{global}");
     assert_eq!(global["asked"], 2000);
     assert_eq!(global["cap_reached"], false);
@@ -93,7 +94,7 @@ fn the_global_map_holds_the_photons_asked_for_or_says_why_not() {
     assert!(!stderr.contains("warning"), "{stderr}");
 
     // A floor alone: light leaves after its one diffuse bounce, nothing is ever stored.
-    let (stderr, global, film) = render(dir.path(), HEAD, 2000);
+    let (stderr, global, film) = render(dir.path(), HEAD, Some(2000));
     let cap = 2000 * GLOBAL_EMISSIONS_PER_PHOTON;
     assert_eq!(max_emissions(PathClass::Global, 2000), cap);
     assert_eq!(global["stored"], 0);
@@ -110,6 +111,17 @@ fn the_global_map_holds_the_photons_asked_for_or_says_why_not() {
     // The render completed with the floor's direct light, and nothing is NaN.
     assert!(film.pixels.iter().all(|p| p.is_finite()));
     assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
+    // A count the user did not give is an "up to" count: the statistics tell of the cap, but
+    // nothing is said on standard error (the canonical scene's default render ends there too).
+    let (stderr, global, _) = render(dir.path(), HEAD, None);
+    let asked = global["asked"].as_u64().unwrap();
+    assert_eq!(global["stored"], 0);
+    assert_eq!(
+        global["emitted"],
+        max_emissions(PathClass::Global, asked as usize)
+    );
+    assert_eq!(global["cap_reached"], true);
+    assert_eq!(stderr.trim(), "");
 }
 
 /// The canonical scene's global map from 2,000,000 emissions with a share `bounce_aim` of its

@@ -4,6 +4,7 @@
 use super::create_parent;
 use photondiff::embree::Device;
 use photondiff::photons::file;
+use photondiff::photons::map::PathClass;
 use photondiff::photons::trace::{PhotonOptions, TraceCounts};
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
@@ -21,13 +22,13 @@ pub struct PhotonsArgs {
     output: PathBuf,
     /// Photons stored in the global map (as `render --photons`; the default is the default
     /// render's, 50,000: maps for the thesis's estimators take `--photons 100000`).
-    #[arg(long = "photons", value_name = "N", default_value_t = photondiff::render::passes::DEFAULT_GLOBAL_PHOTONS)]
-    global_photons: usize,
+    #[arg(long = "photons", value_name = "N")]
+    global_photons: Option<usize>,
     /// Photons stored in the caustic map (as `render --caustic-photons`; the default is the
     /// default render's, 60,000: maps for `--estimator pd` and the thesis's other estimators
     /// at their default take `--caustic-photons 20000`).
-    #[arg(long, value_name = "N", default_value_t = photondiff::render::passes::DEFAULT_CAUSTIC_PHOTONS)]
-    caustic_photons: usize,
+    #[arg(long, value_name = "N")]
+    caustic_photons: Option<usize>,
     /// Photon footprint size (as `render --overlap`).
     #[arg(long, value_name = "X", default_value_t = 32.0)]
     overlap: f64,
@@ -75,8 +76,12 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         .build_embree(&device)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     let options = PhotonOptions {
-        global_photons: args.global_photons,
-        caustic_photons: args.caustic_photons,
+        global_photons: args
+            .global_photons
+            .unwrap_or(photondiff::render::passes::DEFAULT_GLOBAL_PHOTONS),
+        caustic_photons: args
+            .caustic_photons
+            .unwrap_or(photondiff::render::passes::DEFAULT_CAUSTIC_PHOTONS),
         overlap: args.overlap,
         seed: args.seed,
         global_aim: args.global_aim,
@@ -93,7 +98,10 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         progress,
         &mut stats,
     )?;
-    super::render::warn_shortfalls(&args.scene, &stats);
+    super::render::warn_shortfalls(&args.scene, &stats, |class| match class {
+        PathClass::Caustic => args.caustic_photons.is_some(),
+        _ => args.global_photons.is_some(),
+    });
     let counts: [TraceCounts; 2] = [0, 1].map(|i| {
         let m = &stats.photon_maps[i];
         TraceCounts {

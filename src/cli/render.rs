@@ -4,6 +4,7 @@ use super::create_parent;
 use photondiff::embree::{BvhQuality, BvhSettings, Device};
 use photondiff::estimate::final_gather::{MAX_GATHER_RAYS, MAX_NEAR_REACH, NEAR_REACH};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
+use photondiff::photons::map::PathClass;
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::pass_part::write_pass_part;
@@ -79,7 +80,8 @@ pub struct RenderArgs {
     #[arg(long, value_enum)]
     estimator: Option<EstimatorKind>,
     /// Photons stored in the global map (indirect light, of each pass); emission stops at 4
-    /// emissions per photon asked for, with a warning if fewer were stored. Default 50,000 for
+    /// emissions per photon asked for, and the statistics say if fewer were stored (a warning
+    /// too when N is given here; a default count is an "up to" count). Default 50,000 for
     /// `integrated` (the default estimator), 100,000 (the thesis's count) for the others.
     #[arg(long = "photons", value_name = "N")]
     global_photons: Option<usize>,
@@ -383,7 +385,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         }
     };
 
-    warn_shortfalls(&args.scene, &stats);
+    // Only a count the user gave: the defaults are "up to" counts, and an open scene such as
+    // the canonical one stores few global photons by design (the statistics still say so).
+    warn_shortfalls(&args.scene, &stats, |class| match class {
+        PathClass::Caustic => args.caustic_photons.is_some(),
+        _ => args.global_photons.is_some(),
+    });
     let stem = args
         .scene
         .file_stem()
@@ -597,12 +604,16 @@ fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
     ]
 }
 
-/// Tells, once per map class and whatever --quiet says, that a photon map holds fewer photons
-/// than asked for (the statistics say so too).
-pub(crate) fn warn_shortfalls(scene: &Path, stats: &photondiff::render::stats::Stats) {
+/// Tells, once per map class whose count `asked` says the user gave and whatever --quiet says,
+/// that a photon map holds fewer photons than asked for (the statistics say so too).
+pub(crate) fn warn_shortfalls(
+    scene: &Path,
+    stats: &photondiff::render::stats::Stats,
+    asked: impl Fn(PathClass) -> bool,
+) {
     let mut told = Vec::new();
     for m in &stats.photon_maps {
-        if let Some(message) = m.shortfall() {
+        if let Some(message) = m.shortfall().filter(|_| asked(m.class)) {
             if !told.contains(&m.class) {
                 told.push(m.class);
                 eprintln!("photondiff: warning: {}: {message}", scene.display());

@@ -250,8 +250,13 @@ impl Stats {
             );
         }
         for m in &self.photon_maps {
+            let cap = if m.cap_reached {
+                format!(" (of {} asked: emission stopped at its cap)", m.asked)
+            } else {
+                String::new()
+            };
             out += &format!(
-                "  {} map: {} photons stored from {} emissions ({} rays), power {:.4} W; \
+                "  {} map: {} photons stored{cap} from {} emissions ({} rays), power {:.4} W; \
                  guarded footprints: {} clamped small, {} clamped large, {} anisotropy, {} fallback; \
                  {} mirrored at walls and edges\n",
                 capitalised(m.class.name()),
