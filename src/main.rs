@@ -53,6 +53,8 @@ fn main() -> ExitCode {
         Command::Info(args) => cli::info::run(&args),
     };
     match result {
+        // Stopped early by Ctrl-C (the conventional 128 + SIGINT), with what was done written.
+        Ok(()) if photondiff::util::interrupt::requested() => ExitCode::from(130),
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("photondiff: error: {message}");

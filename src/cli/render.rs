@@ -9,7 +9,7 @@ use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::render::pass_part::write_pass_part;
 use photondiff::render::passes::{
-    PassReport, RenderDefaults, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA, DEFAULT_PASSES,
+    PassReport, RenderDefaults, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA, DEFAULT_PASSES,
 };
 use photondiff::render::stats::Stats;
 use photondiff::render::{
@@ -137,7 +137,8 @@ pub struct RenderArgs {
     /// Progressive passes: the image is the mean of N independent passes (fresh photons with
     /// shrinking footprints, jittered camera rays). Default 2 for `integrated` (the default
     /// estimator) and 1 for the others (the thesis's methods as they were), or no limit with
-    /// --time-budget or --target-noise.
+    /// --time-budget or --target-noise. Ctrl-C stops the passes after the one under way and
+    /// writes the mean of those done (exit status 130); a second Ctrl-C exits at once.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     passes: Option<String>,
     /// Photon estimates and `direct`: stop after the last whole pass that fits in SECONDS (at
@@ -203,6 +204,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         &stop,
         kind,
     )?;
+    if pass_range.is_none() && kind != EstimatorKind::Lighttrace {
+        // From the start, so that a Ctrl-C while the scene loads is not lost either.
+        stop_passes_on_ctrl_c();
+    }
     let mut range_sum = None;
     if let Some(path) = &args.trace {
         // Refuse an unwritable path now rather than after the render.
@@ -516,7 +521,35 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         eprint!("{}", stats.summary());
     }
     println!("wrote {} and {}", exr.display(), png.display());
+    if let Some(p) = stats.progressive.as_ref() {
+        if p.stop == StopReason::Interrupted {
+            // Whatever --quiet says: the image is not what the options asked for.
+            eprintln!(
+                "photondiff: interrupted: the image is the mean of the {} passes done",
+                p.passes
+            );
+        }
+    }
     Ok(())
+}
+
+/// Ctrl-C during the passes: the first asks them to stop after the pass under way (the image
+/// is then the mean of the passes done, written as usual, and the exit status 130); a second
+/// exits at once, writing nothing. Not for a worker's pass range (`--pass-range`), whose
+/// passes belong to a larger run, nor for `lighttrace`: there Ctrl-C ends the process as
+/// usual.
+fn stop_passes_on_ctrl_c() {
+    // A handler already set (by an embedding program) is left alone.
+    let _ = ctrlc::set_handler(|| {
+        if photondiff::util::interrupt::request() {
+            eprintln!("\nphotondiff: interrupted again: exiting without writing the image");
+            std::process::exit(130);
+        }
+        eprintln!(
+            "\nphotondiff: interrupted: finishing the pass under way, then writing the mean of the \
+             passes done (Ctrl-C again to exit at once)"
+        );
+    });
 }
 
 /// The estimator asked for, `integrated` by default.
@@ -578,6 +611,7 @@ fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
         passes: passes.or(if open { None } else { Some(default) }),
         time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
         target_noise: args.target_noise,
+        on_interrupt: true,
     })
 }
 

@@ -213,7 +213,8 @@ pub fn jitter(pass: u64) -> [f64; 2] {
 }
 
 /// When a progressive render stops: after `passes` passes, before a pass that would end after
-/// `time_budget`, or once the noise estimate falls below `target_noise`, whichever comes first.
+/// `time_budget`, once the noise estimate falls below `target_noise`, or (with `on_interrupt`)
+/// after the pass under way when [`crate::util::interrupt`] asks it to, whichever comes first.
 /// At least one pass is rendered.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StopRules {
@@ -223,6 +224,9 @@ pub struct StopRules {
     pub time_budget: Option<Duration>,
     /// Relative standard error ([`NoiseEstimate::worst`]) to reach.
     pub target_noise: Option<f64>,
+    /// Whether a stop requested through [`crate::util::interrupt`] (Ctrl-C at the command
+    /// line) ends the run after the pass under way.
+    pub on_interrupt: bool,
 }
 
 impl StopRules {
@@ -245,6 +249,8 @@ pub enum StopReason {
     TimeBudget,
     /// The noise estimate fell below the target.
     TargetNoise,
+    /// A stop was requested (Ctrl-C): the image is the mean of the passes done.
+    Interrupted,
 }
 
 /// What a progressive render reports (in the statistics and the EXR metadata).
@@ -467,6 +473,9 @@ impl Progressive<'_> {
                 if now < target {
                     break StopReason::TargetNoise;
                 }
+            }
+            if stop.on_interrupt && done > 0 && crate::util::interrupt::requested() {
+                break StopReason::Interrupted;
             }
             let span = trace::span_with("pass", || serde_json::json!({ "pass": done }));
             let mut pass_stats = Stats::default();

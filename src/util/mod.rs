@@ -1,7 +1,8 @@
 //! Small utilities every stage shares: random number streams, progress bars, atomic file
-//! output, the process's memory and a trace for profiling.
+//! output, the process's memory, a trace for profiling and the request to stop a run early.
 
 pub mod atomic;
+pub mod interrupt;
 pub mod memory;
 pub mod progress;
 pub mod rng;

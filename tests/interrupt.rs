@@ -1,0 +1,151 @@
+//! Ctrl-C during a progressive render: the first stops the passes after the one under way and
+//! writes their mean (exit status 130, the statistics and the EXR saying why it stopped); a
+//! second exits at once without writing. The real signal, sent by `kill` to the real binary.
+
+use photondiff::render::film::Film;
+use std::path::Path;
+use std::process::{Child, Command, ExitStatus, Stdio};
+use std::time::{Duration, Instant};
+
+const SCENE: &str = r#"
+[camera]
+eye = [0.0, 3.0, 4.0]
+look_at = [0.0, 0.5, 0.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 40.0
+width = 32
+height = 24
+
+[materials.white]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[materials.glass]
+type = "glass"
+ior = 1.5
+
+[[lights]]
+type = "point"
+position = [0.0, 4.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+
+[[shapes]]
+type = "quad"
+corner = [-2.0, 0.0, 2.0]
+edge_u = [4.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -4.0]
+material = "white"
+
+[[shapes]]
+type = "sphere"
+center = [0.0, 1.0, 0.0]
+radius = 0.5
+segments = 32
+material = "glass"
+"#;
+
+/// Starts a render that would run for ten minutes (a time budget of 600 s).
+fn start(dir: &Path) -> Child {
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args([
+            "render",
+            "--quiet",
+            "--threads",
+            "1",
+            "--time-budget",
+            "600",
+        ])
+        .arg("-o")
+        .arg(dir.join("img.exr"))
+        .arg("--stats-json")
+        .arg(dir.join("stats.json"))
+        .arg(&scene)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Sends SIGINT to the process we started (by its id).
+fn interrupt(child: &Child) {
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+}
+
+/// Waits at most a minute; kills the process (ours) and fails if it has not ended by then.
+fn wait(child: &mut Child) -> ExitStatus {
+    let start = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        if start.elapsed() > Duration::from_secs(60) {
+            child.kill().unwrap();
+            panic!("the render did not stop within a minute of Ctrl-C");
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// Starts a render and interrupts it `times` times once it has run `after`; retries with a
+/// longer wait if the signal came before the handler was installed (the process then dies of
+/// the signal, with no exit status), which only a very busy machine would see.
+fn run_and_interrupt(dir: &Path, times: usize) -> (ExitStatus, String) {
+    for wait_ms in [1000, 3000, 9000] {
+        let mut child = start(dir);
+        std::thread::sleep(Duration::from_millis(wait_ms));
+        for _ in 0..times {
+            interrupt(&child);
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let status = wait(&mut child);
+        let mut stderr = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+        if status.code().is_some() {
+            return (status, stderr);
+        }
+    }
+    panic!("the render died of the signal three times: no handler");
+}
+
+#[test]
+fn the_first_ctrl_c_keeps_the_passes_done() {
+    let dir = tempfile::tempdir().unwrap();
+    let (status, stderr) = run_and_interrupt(dir.path(), 1);
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
+            .unwrap();
+    let passes = json["progressive"]["passes"].as_u64().unwrap();
+    assert!(passes >= 1, "{json}");
+    assert_eq!(json["progressive"]["stop"], "interrupted");
+    assert_eq!(
+        stderr.trim(),
+        format!(
+            "photondiff: interrupted: finishing the pass under way, then writing the mean of the \
+             passes done (Ctrl-C again to exit at once)\n\
+             photondiff: interrupted: the image is the mean of the {passes} passes done"
+        )
+    );
+    let film = Film::read_exr(&dir.path().join("img.exr")).unwrap();
+    assert!(film.pixels.iter().all(|p| p.is_finite()));
+    assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
+}
+
+#[test]
+fn a_second_ctrl_c_exits_at_once_without_an_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let (status, stderr) = run_and_interrupt(dir.path(), 2);
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert!(
+        stderr.ends_with("photondiff: interrupted again: exiting without writing the image\n"),
+        "{stderr}"
+    );
+    assert!(!dir.path().join("img.exr").exists());
+    assert!(!dir.path().join("stats.json").exists());
+}
