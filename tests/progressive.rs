@@ -474,6 +474,41 @@ fn pass_options_are_validated_with_one_line_errors() {
 }
 
 #[test]
+fn without_a_terminal_each_pass_writes_a_line_and_quiet_writes_none() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, SMALL_SCENE).unwrap();
+    let exr = dir.path().join("img.exr");
+    let (scene, exr) = (scene.to_str().unwrap(), exr.to_str().unwrap());
+    // Standard error is a pipe here, as in a batch job's log.
+    let out = photondiff(&["render", "--passes", "3", "-o", exr, scene]);
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let lines: Vec<&str> = stderr
+        .lines()
+        .filter(|l| l.starts_with("passes:"))
+        .collect();
+    assert_eq!(lines.len(), 3, "{stderr}");
+    for (k, line) in lines.iter().enumerate() {
+        let head = format!("passes: {} of 3 done, ", k + 1);
+        assert!(line.starts_with(&head), "{line}");
+        // Time so far, time left, then the noise: not known after one pass.
+        let rest: Vec<&str> = line[head.len()..].split(", noise ").collect();
+        assert_eq!(rest.len(), 2, "{line}");
+        assert!(
+            rest[0].ends_with(" s left") && rest[0].contains(" s, "),
+            "{line}"
+        );
+        assert_eq!(rest[1] == "n/a (caustic n/a)", k == 0, "{line}");
+    }
+    // The statistics come after the last pass's line.
+    assert!(stderr.find("passes: 3 of 3").unwrap() < stderr.find("statistics:").unwrap());
+    let quiet = photondiff(&["render", "--quiet", "--passes", "3", "-o", exr, scene]);
+    assert!(quiet.status.success());
+    assert_eq!(String::from_utf8_lossy(&quiet.stderr), "");
+}
+
+#[test]
 fn the_command_line_reports_passes_and_noise_and_stops_by_its_rules() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");

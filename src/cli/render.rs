@@ -188,7 +188,8 @@ pub struct RenderArgs {
     /// (ui.perfetto.dev) or chrome://tracing.
     #[arg(long, value_name = "FILE")]
     trace: Option<PathBuf>,
-    /// No progress bar and no statistics summary.
+    /// No progress bar (nor, where standard error is not a terminal, its line a pass) and no
+    /// statistics summary.
     #[arg(short, long)]
     quiet: bool,
 }
@@ -273,6 +274,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
                 .unwrap_or(defaults.footprint_strata),
         )
         .with_progress(!args.quiet && std::io::stderr().is_terminal())
+        .with_pass_log(!args.quiet && !std::io::stderr().is_terminal())
         .with_window(window);
     let photon_options = PhotonOptions {
         global_photons: args.global_photons.unwrap_or(defaults.global_photons),

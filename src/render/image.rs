@@ -46,6 +46,10 @@ pub struct RenderOptions {
     pub threads: usize,
     /// Whether to show a progress bar on standard error. Default false.
     pub progress: bool,
+    /// Whether a progressive render of more than one pass writes a line a pass on standard
+    /// error (passes done, time, time left, noise): the progress bar's content where no bar
+    /// can be drawn (a batch job's log). Default false.
+    pub pass_log: bool,
     /// Where in its cell of the view grid each camera ray passes, in `[0, 1)^2` of the cell.
     /// Default `[0.5, 0.5]`: the centre. Progressive passes move it from pass to pass
     /// ([`crate::render::passes`]).
@@ -73,6 +77,7 @@ impl Default for RenderOptions {
             seed: 0,
             threads: 0,
             progress: false,
+            pass_log: false,
             jitter: [0.5, 0.5],
             window: None,
             edges: None,
@@ -119,6 +124,11 @@ impl RenderOptions {
     /// Sets [`RenderOptions::progress`].
     pub fn with_progress(mut self, progress: bool) -> Self {
         self.progress = progress;
+        self
+    }
+    /// Sets [`RenderOptions::pass_log`].
+    pub fn with_pass_log(mut self, pass_log: bool) -> Self {
+        self.pass_log = pass_log;
         self
     }
     /// Sets [`RenderOptions::edges`].

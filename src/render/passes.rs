@@ -492,7 +492,11 @@ impl Progressive<'_> {
             let elapsed = start.elapsed().as_secs_f64();
             bar.set_position(sum.passes);
             let slower = self.alpha.min(self.global_alpha);
-            bar.set_message(status(stop, sum.passes, elapsed, &noise, slower));
+            let message = status(stop, sum.passes, elapsed, &noise, slower);
+            if self.render.pass_log && !single {
+                eprintln!("{}", pass_line(stop, sum.passes, elapsed, &message));
+            }
+            bar.set_message(message);
         };
         bar.finish_and_clear();
         stats.finish_passes(sum.passes);
@@ -528,6 +532,13 @@ fn trace_pass(pass: &Stats) {
         let per = |n: u64| n as f64 / g.gathers.max(1) as f64;
         serde_json::json!({"found": per(g.photons_found), "used": per(g.photons_used)})
     });
+}
+
+/// The line a pass writes where no progress bar is drawn ([`RenderOptions::pass_log`]): what
+/// the bar shows, e.g. `passes: 3 of 8 done, 2.4 s, 4.0 s left, noise 2.40% (caustic 2.11%)`.
+fn pass_line(stop: &StopRules, done: u64, elapsed: f64, status: &str) -> String {
+    let of = stop.passes.map_or(String::new(), |n| format!(" of {n}"));
+    format!("passes: {done}{of} done, {elapsed:.1} s, {status}")
 }
 
 /// The progress bar's message: time left (the least any rule allows, from the mean pass time)
