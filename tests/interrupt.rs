@@ -44,10 +44,11 @@ segments = 32
 material = "glass"
 "#;
 
-/// Starts a render that would run for ten minutes (a time budget of 600 s).
-fn start(dir: &Path) -> Child {
-    let scene = dir.join("scene.toml");
-    std::fs::write(&scene, SCENE).unwrap();
+/// Starts a render of `scene` with `extra` options that would run for ten minutes (a time
+/// budget of 600 s).
+fn start(dir: &Path, scene: &str, extra: &[&str]) -> Child {
+    let file = dir.join("scene.toml");
+    std::fs::write(&file, scene).unwrap();
     Command::new(env!("CARGO_BIN_EXE_photondiff"))
         .args([
             "render",
@@ -57,11 +58,12 @@ fn start(dir: &Path) -> Child {
             "--time-budget",
             "600",
         ])
+        .args(extra)
         .arg("-o")
         .arg(dir.join("img.exr"))
         .arg("--stats-json")
         .arg(dir.join("stats.json"))
-        .arg(&scene)
+        .arg(&file)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -95,9 +97,14 @@ fn wait(child: &mut Child) -> ExitStatus {
 /// Starts a render and interrupts it `times` times once it has run `after`; retries with a
 /// longer wait if the signal came before the handler was installed (the process then dies of
 /// the signal, with no exit status), which only a very busy machine would see.
-fn run_and_interrupt(dir: &Path, times: usize) -> (ExitStatus, String) {
+fn run_and_interrupt(
+    dir: &Path,
+    scene: &str,
+    extra: &[&str],
+    times: usize,
+) -> (ExitStatus, String) {
     for wait_ms in [1000, 3000, 9000] {
-        let mut child = start(dir);
+        let mut child = start(dir, scene, extra);
         std::thread::sleep(Duration::from_millis(wait_ms));
         for _ in 0..times {
             interrupt(&child);
@@ -116,7 +123,7 @@ fn run_and_interrupt(dir: &Path, times: usize) -> (ExitStatus, String) {
 #[test]
 fn the_first_ctrl_c_keeps_the_passes_done() {
     let dir = tempfile::tempdir().unwrap();
-    let (status, stderr) = run_and_interrupt(dir.path(), 1);
+    let (status, stderr) = run_and_interrupt(dir.path(), SCENE, &[], 1);
     assert_eq!(status.code(), Some(130), "{stderr}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
@@ -140,7 +147,11 @@ fn the_first_ctrl_c_keeps_the_passes_done() {
 #[test]
 fn a_second_ctrl_c_exits_at_once_without_an_image() {
     let dir = tempfile::tempdir().unwrap();
-    let (status, stderr) = run_and_interrupt(dir.path(), 2);
+    // Passes of 20 million camera rays (seconds each), so that both signals come while the
+    // first pass is under way and the second must end it.
+    let large = SCENE.replace("width = 32\nheight = 24", "width = 640\nheight = 480");
+    assert_ne!(large, SCENE);
+    let (status, stderr) = run_and_interrupt(dir.path(), &large, &["--view-grid", "8"], 2);
     assert_eq!(status.code(), Some(130), "{stderr}");
     assert!(
         stderr.ends_with("photondiff: interrupted again: exiting without writing the image\n"),
