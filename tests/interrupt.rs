@@ -7,42 +7,8 @@ use std::path::Path;
 use std::process::{Child, Command, ExitStatus, Stdio};
 use std::time::{Duration, Instant};
 
-const SCENE: &str = r#"
-[camera]
-eye = [0.0, 3.0, 4.0]
-look_at = [0.0, 0.5, 0.0]
-up = [0.0, 1.0, 0.0]
-fov_y = 40.0
-width = 32
-height = 24
-
-[materials.white]
-type = "diffuse"
-albedo = [0.5, 0.5, 0.5]
-
-[materials.glass]
-type = "glass"
-ior = 1.5
-
-[[lights]]
-type = "point"
-position = [0.0, 4.0, 0.0]
-intensity = [10.0, 10.0, 10.0]
-
-[[shapes]]
-type = "quad"
-corner = [-2.0, 0.0, 2.0]
-edge_u = [4.0, 0.0, 0.0]
-edge_v = [0.0, 0.0, -4.0]
-material = "white"
-
-[[shapes]]
-type = "sphere"
-center = [0.0, 1.0, 0.0]
-radius = 0.5
-segments = 32
-material = "glass"
-"#;
+mod common;
+use common::SMALL_SCENE as SCENE;
 
 /// Starts a render of `scene` with `extra` options that would run for ten minutes (a time
 /// budget of 600 s).

@@ -15,6 +15,8 @@ use photondiff::scene::file::{load_scene, parse_scene};
 use photondiff::scene::Scene;
 use std::path::Path;
 
+mod common;
+
 fn canonical(width: u32, height: u32) -> Scene {
     let mut scene = load_scene(Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -332,43 +334,6 @@ fn the_progressive_mean_does_not_drift_from_the_analytic_caustic() {
     }
 }
 
-const SMALL_SCENE: &str = r#"
-[camera]
-eye = [0.0, 2.0, 5.0]
-look_at = [0.0, 0.0, 0.0]
-up = [0.0, 1.0, 0.0]
-fov_y = 40.0
-width = 32
-height = 24
-
-[materials.white]
-type = "diffuse"
-albedo = [0.5, 0.5, 0.5]
-
-[materials.glass]
-type = "glass"
-ior = 1.5
-
-[[lights]]
-type = "point"
-position = [0.0, 4.0, 0.0]
-intensity = [10.0, 10.0, 10.0]
-
-[[shapes]]
-type = "quad"
-corner = [-2.0, 0.0, 2.0]
-edge_u = [4.0, 0.0, 0.0]
-edge_v = [0.0, 0.0, -4.0]
-material = "white"
-
-[[shapes]]
-type = "sphere"
-center = [0.0, 1.0, 0.0]
-radius = 0.5
-segments = 32
-material = "glass"
-"#;
-
 fn photondiff(args: &[&str]) -> std::process::Output {
     std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
         .args(args)
@@ -380,7 +345,7 @@ fn photondiff(args: &[&str]) -> std::process::Output {
 fn pass_options_are_validated_with_one_line_errors() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, SMALL_SCENE).unwrap();
+    std::fs::write(&scene, common::SMALL_SCENE).unwrap();
     let scene = scene.to_str().unwrap();
     let cases = [
         (
@@ -477,7 +442,7 @@ fn pass_options_are_validated_with_one_line_errors() {
 fn without_a_terminal_each_pass_writes_a_line_and_quiet_writes_none() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, SMALL_SCENE).unwrap();
+    std::fs::write(&scene, common::SMALL_SCENE).unwrap();
     let exr = dir.path().join("img.exr");
     let (scene, exr) = (scene.to_str().unwrap(), exr.to_str().unwrap());
     // Standard error is a pipe here, as in a batch job's log.
@@ -512,7 +477,7 @@ fn without_a_terminal_each_pass_writes_a_line_and_quiet_writes_none() {
 fn the_command_line_reports_passes_and_noise_and_stops_by_its_rules() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, SMALL_SCENE).unwrap();
+    std::fs::write(&scene, common::SMALL_SCENE).unwrap();
     let scene = scene.to_str().unwrap();
     let exr = dir.path().join("img.exr");
     let json = dir.path().join("stats.json");

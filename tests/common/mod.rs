@@ -84,3 +84,42 @@ pub fn render_stats(scene: &str, args: &[&str]) -> serde_json::Value {
     std::fs::write(&path, scene).unwrap();
     render_file(&path, &dir.path().join("image"), args).0
 }
+
+/// A glass sphere on a floor under a point light at 32 x 24 pixels: small enough that a pass
+/// takes a fraction of a second, for the command-line tests.
+pub const SMALL_SCENE: &str = r#"
+[camera]
+eye = [0.0, 2.0, 5.0]
+look_at = [0.0, 0.0, 0.0]
+up = [0.0, 1.0, 0.0]
+fov_y = 40.0
+width = 32
+height = 24
+
+[materials.white]
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+
+[materials.glass]
+type = "glass"
+ior = 1.5
+
+[[lights]]
+type = "point"
+position = [0.0, 4.0, 0.0]
+intensity = [10.0, 10.0, 10.0]
+
+[[shapes]]
+type = "quad"
+corner = [-2.0, 0.0, 2.0]
+edge_u = [4.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -4.0]
+material = "white"
+
+[[shapes]]
+type = "sphere"
+center = [0.0, 1.0, 0.0]
+radius = 0.5
+segments = 32
+material = "glass"
+"#;
