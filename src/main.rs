@@ -54,7 +54,7 @@ fn main() -> ExitCode {
     };
     match result {
         // Stopped early by Ctrl-C (the conventional 128 + SIGINT), with what was done written.
-        Ok(()) if photondiff::util::interrupt::requested() => ExitCode::from(130),
+        Ok(()) if photondiff::util::interrupt::honoured() => ExitCode::from(130),
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("photondiff: error: {message}");

@@ -196,6 +196,7 @@ pub struct RenderArgs {
 
 /// Runs `photondiff render`.
 pub fn run(args: &RenderArgs) -> Result<(), String> {
+    super::check_threads(args.threads)?;
     let kind = estimator_kind(args);
     let defaults = RenderDefaults::for_estimator(kind);
     let stop = stop_rules(args)?;
@@ -561,7 +562,6 @@ fn estimator_kind(args: &RenderArgs) -> EstimatorKind {
 
 /// Checks the pass options and turns them into stop rules (for photon estimates and `direct`).
 fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
-    super::check_threads(args.threads)?;
     let passes = match &args.passes {
         None => None,
         Some(text) => match text.trim().parse::<u64>() {

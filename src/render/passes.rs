@@ -475,6 +475,7 @@ impl Progressive<'_> {
                 }
             }
             if stop.on_interrupt && done > 0 && crate::util::interrupt::requested() {
+                crate::util::interrupt::honour();
                 break StopReason::Interrupted;
             }
             let span = trace::span_with("pass", || serde_json::json!({ "pass": done }));

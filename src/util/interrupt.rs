@@ -18,3 +18,18 @@ pub fn request() -> bool {
 pub fn requested() -> bool {
     REQUESTED.load(Ordering::SeqCst)
 }
+
+/// Whether a run stopped early because of the request (a request that came too late to cut
+/// anything, during the last pass or the writing, leaves it unset).
+static HONOURED: AtomicBool = AtomicBool::new(false);
+
+/// Records that a run stopped early because of the request.
+pub fn honour() {
+    HONOURED.store(true, Ordering::SeqCst);
+}
+
+/// Whether a run stopped early because of the request (what the command line's exit status
+/// tells).
+pub fn honoured() -> bool {
+    HONOURED.load(Ordering::SeqCst)
+}
