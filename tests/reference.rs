@@ -141,7 +141,7 @@ fn split_reference_agrees_with_plain_light_tracing_and_is_less_noisy() {
         seed: 0,
     };
     let split = pool
-        .install(|| make(&scene, &embree, &settings, &mut |_| {}))
+        .install(|| make(&scene, &embree, &settings, false, &mut |_| {}))
         .unwrap();
     let regions = Regions::new(&scene, &embree, &split.film);
     for (name, pixels) in [

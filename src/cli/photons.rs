@@ -10,7 +10,6 @@ use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::scene::file::load_scene;
 use photondiff::scene::hash::scene_hash;
-use std::io::IsTerminal;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -89,7 +88,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         ..PhotonOptions::default()
     };
     let mut stats = Stats::default();
-    let progress = !args.quiet && std::io::stderr().is_terminal();
+    let progress = !args.quiet;
     let maps = trace_photon_maps(
         &scene,
         &embree,

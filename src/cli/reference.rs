@@ -146,7 +146,8 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         seed: args.seed,
     };
     let start = std::time::Instant::now();
-    let reference = pool.install(|| make(&scene, &embree, &settings, &mut |m| eprintln!("{m}")))?;
+    let reference =
+        pool.install(|| make(&scene, &embree, &settings, true, &mut |m| eprintln!("{m}")))?;
     let seconds = start.elapsed().as_secs_f64();
     let meta = vec![(META_KEY.to_string(), settings.tag())];
     write(args, &scene, &embree, &reference, &meta, Some(seconds))

@@ -17,7 +17,6 @@ use photondiff::render::{
 };
 use photondiff::scene::file::load_scene;
 use photondiff::scene::hash::{hex, scene_hash};
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 
 #[derive(clap::Args)]
@@ -188,8 +187,8 @@ pub struct RenderArgs {
     /// (ui.perfetto.dev) or chrome://tracing.
     #[arg(long, value_name = "FILE")]
     trace: Option<PathBuf>,
-    /// No progress bar (nor, where standard error is not a terminal, its line a pass) and no
-    /// statistics summary.
+    /// No progress (a bar on a terminal; elsewhere, as in a batch job's log, a line a pass or
+    /// every 15 s of a long stage) and no statistics summary.
     #[arg(short, long)]
     quiet: bool,
 }
@@ -274,8 +273,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             args.footprint_shadow_rays
                 .unwrap_or(defaults.footprint_strata),
         )
-        .with_progress(!args.quiet && std::io::stderr().is_terminal())
-        .with_pass_log(!args.quiet && !std::io::stderr().is_terminal())
+        .with_progress(!args.quiet)
         .with_window(window);
     let photon_options = PhotonOptions {
         global_photons: args.global_photons.unwrap_or(defaults.global_photons),

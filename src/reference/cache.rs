@@ -80,11 +80,14 @@ impl Default for ReferenceSettings {
     }
 }
 
-/// Makes the reference of `scene` (on the current rayon pool). `log` receives progress messages.
+/// Makes the reference of `scene` (on the current rayon pool). `log` receives a message as each
+/// stage starts; `progress` reports the light tracing's progress as it goes
+/// ([`crate::util::progress::bar`]: it takes most of the time).
 pub fn make(
     scene: &Scene,
     embree: &embree::Scene,
     settings: &ReferenceSettings,
+    progress: bool,
     log: &mut dyn FnMut(&str),
 ) -> Result<Reference, String> {
     let mut direct = Vec::new();
@@ -109,7 +112,13 @@ pub fn make(
         seed: settings.seed,
         ..LightTraceOptions::default()
     };
-    let traced = LightTracer::new(scene, embree, &options).run(&indicatif::ProgressBar::hidden());
+    let bar = crate::util::progress::bar(
+        progress,
+        settings.light_paths + settings.caustic_paths,
+        "light",
+    );
+    let traced = LightTracer::new(scene, embree, &options).run(&bar);
+    bar.finish_and_clear();
     let sum = |a: &Film, b: &Film| Film {
         width: a.width,
         height: a.height,
@@ -199,7 +208,7 @@ pub fn load_or_make(
         "reference: making it (cached in {})",
         dir.display()
     ));
-    let reference = make(scene, embree, settings, log)?;
+    let reference = make(scene, embree, settings, false, log)?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let meta = vec![("photondiff/reference".to_string(), tag.clone())];
     reference.film.write_exr(&file(""), &meta)?;

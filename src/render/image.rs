@@ -44,12 +44,9 @@ pub struct RenderOptions {
     pub seed: u64,
     /// Worker threads; 0 uses every core. Default 0.
     pub threads: usize,
-    /// Whether to show a progress bar on standard error. Default false.
+    /// Whether to report progress on standard error (`util::progress`: bars on a terminal,
+    /// lines elsewhere). Default false.
     pub progress: bool,
-    /// Whether a progressive render of more than one pass writes a line a pass on standard
-    /// error (passes done, time, time left, noise): the progress bar's content where no bar
-    /// can be drawn (a batch job's log). Default false.
-    pub pass_log: bool,
     /// Where in its cell of the view grid each camera ray passes, in `[0, 1)^2` of the cell.
     /// Default `[0.5, 0.5]`: the centre. Progressive passes move it from pass to pass
     /// ([`crate::render::passes`]).
@@ -77,7 +74,6 @@ impl Default for RenderOptions {
             seed: 0,
             threads: 0,
             progress: false,
-            pass_log: false,
             jitter: [0.5, 0.5],
             window: None,
             edges: None,
@@ -124,11 +120,6 @@ impl RenderOptions {
     /// Sets [`RenderOptions::progress`].
     pub fn with_progress(mut self, progress: bool) -> Self {
         self.progress = progress;
-        self
-    }
-    /// Sets [`RenderOptions::pass_log`].
-    pub fn with_pass_log(mut self, pass_log: bool) -> Self {
-        self.pass_log = pass_log;
         self
     }
     /// Sets [`RenderOptions::edges`].

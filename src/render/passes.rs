@@ -494,7 +494,7 @@ impl Progressive<'_> {
             bar.set_position(sum.passes);
             let slower = self.alpha.min(self.global_alpha);
             let message = status(stop, sum.passes, elapsed, &noise, slower);
-            if self.render.pass_log && !single {
+            if progress && !single && !crate::util::progress::draws_bars() {
                 eprintln!("{}", pass_line(stop, sum.passes, elapsed, &message));
             }
             bar.set_message(message);
@@ -535,7 +535,7 @@ fn trace_pass(pass: &Stats) {
     });
 }
 
-/// The line a pass writes where no progress bar is drawn ([`RenderOptions::pass_log`]): what
+/// The line a pass writes where no progress bar is drawn ([`crate::util::progress`]): what
 /// the bar shows, e.g. `passes: 3 of 8 done, 2.4 s, 4.0 s left, noise 2.40% (caustic 2.11%)`.
 fn pass_line(stop: &StopRules, done: u64, elapsed: f64, status: &str) -> String {
     let of = stop.passes.map_or(String::new(), |n| format!(" of {n}"));

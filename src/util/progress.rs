@@ -1,27 +1,125 @@
-//! Progress bars for long stages, shared by every stage that reports progress.
+//! Progress of long stages, shared by every stage that reports it: a bar where standard error
+//! is a terminal, and where it is not (a batch job's log, a pipe), where a bar cannot be
+//! drawn, a line every [`LOG_INTERVAL`] with the same figures.
 
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle, TermLike};
+use std::io::{IsTerminal, Write};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
 
-/// A progress bar over `total` steps labelled `stage`, drawn on standard error when `visible`
-/// (and hidden otherwise, at no cost to the caller).
+/// How often a stage's progress is written as a line where no bar can be drawn.
+pub const LOG_INTERVAL: Duration = Duration::from_secs(15);
+
+/// Whether progress is drawn as bars (standard error is a terminal) rather than written as
+/// lines.
+pub fn draws_bars() -> bool {
+    std::io::stderr().is_terminal()
+}
+
+/// A progress bar over `total` steps labelled `stage` when `visible`: drawn on standard error
+/// where it is a terminal, else written there as a line (`photons  42% 00:00:15 eta 21s`) every
+/// [`LOG_INTERVAL`]; hidden, at no cost to the caller, when not `visible`.
 pub fn bar(visible: bool, total: u64, stage: &str) -> ProgressBar {
     if !visible {
         return ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::hidden());
     }
-    let bar = ProgressBar::new(total);
-    if let Ok(style) = ProgressStyle::with_template(
-        "{prefix:>8} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
-    ) {
+    let (bar, template) = if draws_bars() {
+        (
+            ProgressBar::new(total),
+            "{prefix:>8} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
+        )
+    } else {
+        let lines = Lines::new(Box::new(std::io::stderr()), LOG_INTERVAL);
+        let lines = ProgressDrawTarget::term_like_with_hz(Box::new(lines), 1);
+        (
+            ProgressBar::with_draw_target(Some(total), lines),
+            "{prefix} {percent:>3}% {elapsed_precise} eta {eta}",
+        )
+    };
+    if let Ok(style) = ProgressStyle::with_template(template) {
         bar.set_style(style.progress_chars("=> "));
     }
     bar.set_prefix(stage.to_string());
     bar
 }
 
+/// A bar's drawing turned into lines: what a redraw writes is kept, and written to `sink` as
+/// one line at most every `interval` (the first once the stage has run that long); cursor
+/// movements and clearing mean nothing in a log.
+struct Lines {
+    sink: Mutex<Box<dyn Write + Send>>,
+    interval: Duration,
+    text: Mutex<String>,
+    last: Mutex<Instant>,
+}
+
+impl Lines {
+    fn new(sink: Box<dyn Write + Send>, interval: Duration) -> Self {
+        Lines {
+            sink: Mutex::new(sink),
+            interval,
+            text: Mutex::new(String::new()),
+            last: Mutex::new(Instant::now()),
+        }
+    }
+}
+
+impl std::fmt::Debug for Lines {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Lines")
+            .field("interval", &self.interval)
+            .finish()
+    }
+}
+
+impl TermLike for Lines {
+    fn width(&self) -> u16 {
+        100
+    }
+    fn move_cursor_up(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_down(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_right(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn move_cursor_left(&self, _: usize) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn write_line(&self, s: &str) -> std::io::Result<()> {
+        self.write_str(s)
+    }
+    fn write_str(&self, s: &str) -> std::io::Result<()> {
+        if let Ok(mut text) = self.text.lock() {
+            text.push_str(s.trim_end());
+        }
+        Ok(())
+    }
+    fn clear_line(&self) -> std::io::Result<()> {
+        Ok(())
+    }
+    fn flush(&self) -> std::io::Result<()> {
+        let (Ok(mut text), Ok(mut last)) = (self.text.lock(), self.last.lock()) else {
+            return Ok(());
+        };
+        if !text.is_empty() && last.elapsed() >= self.interval {
+            if let Ok(mut sink) = self.sink.lock() {
+                writeln!(sink, "{}", text.trim())?;
+            }
+            *last = Instant::now();
+        }
+        text.clear();
+        Ok(())
+    }
+}
+
 /// A progress bar over progressive passes (`total` of them, or an open count), whose message
-/// the pass loop sets to the time left and the noise estimate.
+/// the pass loop sets to the time left and the noise estimate. Only where bars are drawn
+/// ([`draws_bars`]): elsewhere each pass writes its own line (`render::passes`).
 pub fn pass_bar(visible: bool, total: Option<u64>) -> ProgressBar {
-    if !visible {
+    if !visible || !draws_bars() {
         return ProgressBar::hidden();
     }
     let (bar, template) = match total {
@@ -40,4 +138,54 @@ pub fn pass_bar(visible: bool, total: Option<u64>) -> ProgressBar {
     bar.set_prefix("passes");
     bar.enable_steady_tick(std::time::Duration::from_millis(250));
     bar
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Arc;
+
+    /// A sink the test reads back.
+    #[derive(Clone, Default)]
+    struct Shared(Arc<Mutex<Vec<u8>>>);
+
+    impl Write for Shared {
+        fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+            self.0.lock().unwrap().extend_from_slice(buf);
+            Ok(buf.len())
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+
+    /// A bar drawn into `Lines` over `sink`, as [`bar`] makes it where there is no terminal.
+    fn logged(sink: &Shared, interval: Duration) -> ProgressBar {
+        let lines = Lines::new(Box::new(sink.clone()), interval);
+        let bar = ProgressBar::with_draw_target(
+            Some(200),
+            ProgressDrawTarget::term_like(Box::new(lines)),
+        );
+        bar.set_style(ProgressStyle::with_template("{prefix} {percent:>3}% {pos}").unwrap());
+        bar.set_prefix("light");
+        bar
+    }
+
+    #[test]
+    fn without_a_terminal_progress_is_a_line_at_most_every_interval() {
+        let sink = Shared::default();
+        let bar = logged(&sink, Duration::ZERO);
+        bar.set_position(50);
+        bar.set_position(100);
+        let text = String::from_utf8(sink.0.lock().unwrap().clone()).unwrap();
+        let lines: Vec<&str> = text.lines().collect();
+        assert!(lines.contains(&"light  25% 50"), "{text}");
+        assert_eq!(lines.last(), Some(&"light  50% 100"), "{text}");
+        // Nothing before the interval has passed since the stage began.
+        let quiet = Shared::default();
+        let bar = logged(&quiet, Duration::from_secs(3600));
+        bar.set_position(150);
+        bar.finish_and_clear();
+        assert!(quiet.0.lock().unwrap().is_empty());
+    }
 }
