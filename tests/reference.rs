@@ -206,11 +206,15 @@ fn references_made_in_parts_merge_into_their_mean() {
     let grids = ["--direct-grids", "2,3"];
     for seed in ["1", "2"] {
         let out = format!("part{seed}.exr");
+        // The first part quiet, the second telling its stages.
+        let quiet: &[&str] = if seed == "1" { &["--quiet"] } else { &[] };
         let (ok, err) = reference_cli(
             d,
-            &[&small[..], &grids, &["--seed", seed, "-o", &out]].concat(),
+            &[&small[..], &grids, quiet, &["--seed", seed, "-o", &out]].concat(),
         );
         assert!(ok, "{err}");
+        let told = err.contains("reference: light tracing 200000 + 100000 caustic paths");
+        assert_eq!((told, err.is_empty()), (seed == "2", seed == "1"), "{err}");
     }
     let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "part2.exr", "-o", "all.exr"]);
     assert!(ok, "{err}");

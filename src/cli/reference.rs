@@ -42,6 +42,9 @@ pub struct ReferenceArgs {
     /// beside it), which must have been made with the same settings and different seeds.
     #[arg(long, value_name = "PART.exr", num_args = 1..)]
     merge: Vec<PathBuf>,
+    /// No stage messages and no progress (standard output still reports the noise).
+    #[arg(short, long)]
+    quiet: bool,
 }
 
 /// The path of a reference's half `s` (`a` or `b`): `OUT-s.exr` beside `OUT.exr`.
@@ -146,8 +149,13 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         seed: args.seed,
     };
     let start = std::time::Instant::now();
-    let reference =
-        pool.install(|| make(&scene, &embree, &settings, true, &mut |m| eprintln!("{m}")))?;
+    let reference = pool.install(|| {
+        make(&scene, &embree, &settings, !args.quiet, &mut |m| {
+            if !args.quiet {
+                eprintln!("{m}")
+            }
+        })
+    })?;
     let seconds = start.elapsed().as_secs_f64();
     let meta = vec![(META_KEY.to_string(), settings.tag())];
     write(args, &scene, &embree, &reference, &meta, Some(seconds))
