@@ -1,6 +1,7 @@
 //! Ctrl-C during a progressive render: the first stops the passes after the one under way and
 //! writes their mean (exit status 130, the statistics and the EXR saying why it stopped); a
-//! second exits at once without writing. The real signal, sent by `kill` to the real binary.
+//! second exits at once without writing. `lighttrace` stops after the paths under way and writes
+//! their image. The real signal, sent by `kill` to the real binary.
 
 use photondiff::render::film::Film;
 use std::path::Path;
@@ -125,4 +126,30 @@ fn a_second_ctrl_c_exits_at_once_without_an_image() {
     );
     assert!(!dir.path().join("img.exr").exists());
     assert!(!dir.path().join("stats.json").exists());
+}
+
+#[test]
+fn ctrl_c_ends_light_tracing_with_the_paths_traced() {
+    let dir = tempfile::tempdir().unwrap();
+    // Ten billion paths: hours, but for the signal.
+    let asked: u64 = 10_000_000_000;
+    let args = ["--estimator", "lighttrace", "--light-paths", "10000000000"];
+    let (status, stderr) = run_and_interrupt(dir.path(), SCENE, &args, 1);
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
+            .unwrap();
+    let traced = json["light_paths"].as_u64().unwrap();
+    assert!(traced > 0 && traced < asked, "{json}");
+    assert_eq!(
+        stderr.trim(),
+        format!(
+            "photondiff: interrupted: finishing the light paths under way, then writing the image \
+             of the paths traced (Ctrl-C again to exit at once)\n\
+             photondiff: interrupted: the image is of the {traced} light paths traced"
+        )
+    );
+    let film = Film::read_exr(&dir.path().join("img.exr")).unwrap();
+    assert!(film.pixels.iter().all(|p| p.is_finite()));
+    assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
 }

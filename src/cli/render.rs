@@ -136,8 +136,9 @@ pub struct RenderArgs {
     /// Progressive passes: the image is the mean of N independent passes (fresh photons with
     /// shrinking footprints, jittered camera rays). Default 2 for `integrated` (the default
     /// estimator) and 1 for the others (the thesis's methods as they were), or no limit with
-    /// --time-budget or --target-noise. Ctrl-C stops the passes after the one under way and
-    /// writes the mean of those done (exit status 130); a second Ctrl-C exits at once.
+    /// --time-budget or --target-noise. Ctrl-C stops the passes after the one under way (and
+    /// `lighttrace` after the paths under way) and writes the image of what was done (exit
+    /// status 130); a second Ctrl-C exits at once.
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     passes: Option<String>,
     /// Photon estimates and `direct`: stop after the last whole pass that fits in SECONDS (at
@@ -205,9 +206,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         &stop,
         kind,
     )?;
-    if pass_range.is_none() && kind != EstimatorKind::Lighttrace {
+    if pass_range.is_none() {
         // From the start, so that a Ctrl-C while the scene loads is not lost either.
-        stop_passes_on_ctrl_c();
+        stop_on_ctrl_c(if kind == EstimatorKind::Lighttrace {
+            "finishing the light paths under way, then writing the image of the paths traced"
+        } else {
+            "finishing the pass under way, then writing the mean of the passes done"
+        });
     }
     let mut range_sum = None;
     if let Some(path) = &args.trace {
@@ -335,6 +340,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             paths: args.light_paths,
             time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
             seed: args.seed,
+            on_interrupt: true,
             ..LightTraceOptions::default()
         };
         let pool = rayon::ThreadPoolBuilder::new()
@@ -522,34 +528,37 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         eprint!("{}", stats.summary());
     }
     println!("wrote {} and {}", exr.display(), png.display());
+    // Whatever --quiet says: the image is not what the options asked for.
     if let Some(p) = stats.progressive.as_ref() {
         if p.stop == StopReason::Interrupted {
-            // Whatever --quiet says: the image is not what the options asked for.
             eprintln!(
                 "photondiff: interrupted: the image is the mean of the {} passes done",
                 p.passes
             );
         }
     }
+    if kind == EstimatorKind::Lighttrace && photondiff::util::interrupt::honoured() {
+        eprintln!(
+            "photondiff: interrupted: the image is of the {} light paths traced",
+            stats.light_paths
+        );
+    }
     Ok(())
 }
 
-/// Ctrl-C during the passes: the first asks them to stop after the pass under way (the image
-/// is then the mean of the passes done, written as usual, and the exit status 130); a second
-/// exits at once, writing nothing. Not for a worker's pass range (`--pass-range`), whose
-/// passes belong to a larger run, nor for `lighttrace`: there Ctrl-C ends the process as
-/// usual.
-fn stop_passes_on_ctrl_c() {
+/// Ctrl-C during a render: the first asks it to stop after the work under way (`first` says
+/// what: a pass, or `lighttrace`'s chunks of paths); the image of what was done is written as
+/// usual, and the exit status is 130. A second exits at once, writing nothing. Not for a
+/// worker's pass range (`--pass-range`), whose passes belong to a larger run: there Ctrl-C ends
+/// the process as usual.
+fn stop_on_ctrl_c(first: &'static str) {
     // A handler already set (by an embedding program) is left alone.
-    let _ = ctrlc::set_handler(|| {
+    let _ = ctrlc::set_handler(move || {
         if photondiff::util::interrupt::request() {
             eprintln!("\nphotondiff: interrupted again: exiting without writing the image");
             std::process::exit(130);
         }
-        eprintln!(
-            "\nphotondiff: interrupted: finishing the pass under way, then writing the mean of the \
-             passes done (Ctrl-C again to exit at once)"
-        );
+        eprintln!("\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)");
     });
 }
 

@@ -55,6 +55,10 @@ pub struct LightTraceOptions {
     pub caustic_paths: u64,
     /// Whether to splat vertices lit directly by a light (no bounce before them). Default true.
     pub direct: bool,
+    /// Whether a stop requested through [`crate::util::interrupt`] (Ctrl-C at the command
+    /// line) ends the tracing after the chunks under way, as the time budget does: the image is
+    /// then that of the paths traced. Default false.
+    pub on_interrupt: bool,
 }
 
 impl Default for LightTraceOptions {
@@ -66,6 +70,7 @@ impl Default for LightTraceOptions {
             seed: 0,
             caustic_paths: 0,
             direct: true,
+            on_interrupt: false,
         }
     }
 }
@@ -256,6 +261,10 @@ impl<'a> LightTracer<'a> {
                 if next > 0 && start.elapsed() >= budget {
                     break;
                 }
+            }
+            if self.options.on_interrupt && next > 0 && crate::util::interrupt::requested() {
+                crate::util::interrupt::honour();
+                break;
             }
             let end = (next + round).min(jobs.len());
             let results: Vec<(Vec<Splat>, u64)> = jobs[next..end]
