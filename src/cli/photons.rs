@@ -4,7 +4,6 @@
 use super::create_parent;
 use photondiff::embree::Device;
 use photondiff::photons::file;
-use photondiff::photons::map::PathClass;
 use photondiff::photons::trace::{PhotonOptions, TraceCounts};
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
@@ -97,10 +96,12 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         progress,
         &mut stats,
     )?;
-    super::render::warn_shortfalls(&args.scene, &stats, |class| match class {
-        PathClass::Caustic => args.caustic_photons.is_some(),
-        _ => args.global_photons.is_some(),
-    });
+    super::render::warn_shortfalls(
+        &args.scene,
+        &stats,
+        args.caustic_photons.is_some(),
+        args.global_photons.is_some(),
+    );
     let counts: [TraceCounts; 2] = [0, 1].map(|i| {
         let m = &stats.photon_maps[i];
         TraceCounts {

@@ -399,10 +399,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
 
     // Only a count the user gave: the defaults are "up to" counts, and an open scene such as
     // the canonical one stores few global photons by design (the statistics still say so).
-    warn_shortfalls(&args.scene, &stats, |class| match class {
-        PathClass::Caustic => args.caustic_photons.is_some(),
-        _ => args.global_photons.is_some(),
-    });
+    warn_shortfalls(
+        &args.scene,
+        &stats,
+        args.caustic_photons.is_some(),
+        args.global_photons.is_some(),
+    );
     let stem = args
         .scene
         .file_stem()
@@ -647,16 +649,22 @@ fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
     ]
 }
 
-/// Tells, once per map class whose count `asked` says the user gave and whatever --quiet says,
-/// that a photon map holds fewer photons than asked for (the statistics say so too).
+/// Tells, once per map class and whatever --quiet says, that a photon map holds fewer photons
+/// than asked for (the statistics say so too), where the user gave its count: the caustic map's
+/// (`caustic_given`), or the global or final-gathering map's (`global_given`).
 pub(crate) fn warn_shortfalls(
     scene: &Path,
     stats: &photondiff::render::stats::Stats,
-    asked: impl Fn(PathClass) -> bool,
+    caustic_given: bool,
+    global_given: bool,
 ) {
+    let given = |class| match class {
+        PathClass::Caustic => caustic_given,
+        _ => global_given,
+    };
     let mut told = Vec::new();
     for m in &stats.photon_maps {
-        if let Some(message) = m.shortfall().filter(|_| asked(m.class)) {
+        if let Some(message) = m.shortfall().filter(|_| given(m.class)) {
             if !told.contains(&m.class) {
                 told.push(m.class);
                 eprintln!("photondiff: warning: {}: {message}", scene.display());

@@ -47,19 +47,27 @@ pub fn bar(visible: bool, total: u64, stage: &str) -> ProgressBar {
 /// one line at most every `interval` (the first once the stage has run that long); cursor
 /// movements and clearing mean nothing in a log.
 struct Lines {
-    sink: Mutex<Box<dyn Write + Send>>,
     interval: Duration,
-    text: Mutex<String>,
-    last: Mutex<Instant>,
+    state: Mutex<LinesState>,
+}
+
+/// What [`Lines`] holds between redraws: where it writes, the text of the redraw under way and
+/// when it last wrote a line.
+struct LinesState {
+    sink: Box<dyn Write + Send>,
+    text: String,
+    last: Instant,
 }
 
 impl Lines {
     fn new(sink: Box<dyn Write + Send>, interval: Duration) -> Self {
         Lines {
-            sink: Mutex::new(sink),
             interval,
-            text: Mutex::new(String::new()),
-            last: Mutex::new(Instant::now()),
+            state: Mutex::new(LinesState {
+                sink,
+                text: String::new(),
+                last: Instant::now(),
+            }),
         }
     }
 }
@@ -92,8 +100,8 @@ impl TermLike for Lines {
         self.write_str(s)
     }
     fn write_str(&self, s: &str) -> std::io::Result<()> {
-        if let Ok(mut text) = self.text.lock() {
-            text.push_str(s.trim_end());
+        if let Ok(mut state) = self.state.lock() {
+            state.text.push_str(s.trim_end());
         }
         Ok(())
     }
@@ -101,16 +109,15 @@ impl TermLike for Lines {
         Ok(())
     }
     fn flush(&self) -> std::io::Result<()> {
-        let (Ok(mut text), Ok(mut last)) = (self.text.lock(), self.last.lock()) else {
+        let Ok(mut state) = self.state.lock() else {
             return Ok(());
         };
-        if !text.is_empty() && last.elapsed() >= self.interval {
-            if let Ok(mut sink) = self.sink.lock() {
-                writeln!(sink, "{}", text.trim())?;
-            }
-            *last = Instant::now();
+        let state = &mut *state;
+        if !state.text.is_empty() && state.last.elapsed() >= self.interval {
+            writeln!(state.sink, "{}", state.text.trim())?;
+            state.last = Instant::now();
         }
-        text.clear();
+        state.text.clear();
         Ok(())
     }
 }
