@@ -257,6 +257,10 @@ fn malformed_meshes_are_rejected_with_a_reason() {
             "invalid mesh: vertex 2 is not finite: [0.0, NaN, 0.0]",
         ),
         (
+            tri(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0e19, 0.0]], vec![[0, 1, 2]]),
+            "invalid mesh: vertex 2 lies beyond the coordinates Embree takes (|x| < 1e18): [0.0, 1e19, 0.0]",
+        ),
+        (
             tri(vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], vec![[0, 1, 3]]),
             "invalid mesh: triangle 0 uses vertex 3, but the mesh has 3 vertices",
         ),

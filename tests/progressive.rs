@@ -384,6 +384,12 @@ fn pass_options_are_validated_with_one_line_errors() {
             "--time-budget must be a positive number of seconds, got NaN",
         ),
         (
+            // Past what a clock deadline can hold (`Duration` panicked here).
+            "--time-budget",
+            "1e300",
+            "--time-budget must be at most 31536000 seconds (a year), got 1e300",
+        ),
+        (
             "--target-noise",
             "0",
             "--target-noise must be a positive relative standard error (e.g. 0.01), got 0",

@@ -202,6 +202,48 @@ fn invalid_values_are_explained() {
     assert_eq!(e, "camera.width: must be in 1..=32768, got 0");
 }
 
+/// Points rays start from, beyond what Embree takes, and lights too strong for single
+/// precision: each used to render a black or infinite image without a word.
+#[test]
+fn unrenderable_eyes_lights_and_intensities_are_refused() {
+    let scene = format!("{CAMERA}{REST}");
+    let cases = [
+        (
+            ("eye = [0.0, 2.0, 5.0]", "eye = [0.0, 2.0, 1e30]"),
+            "camera.eye: must lie within the coordinates Embree takes (|x| < 1e18), got [0.0, 2.0, 1e30]",
+        ),
+        (
+            ("position = [0.0, 4.0, 0.0]", "position = [0.0, -2e18, 0.0]"),
+            "lights[0].position: must lie within the coordinates Embree takes (|x| < 1e18), got [0.0, -2e18, 0.0]",
+        ),
+        (
+            ("intensity = [10.0, 10.0, 10.0]", "intensity = [10.0, 1e300, 10.0]"),
+            "lights[0].intensity: components must be at most 1e20, got [10.0, 1e300, 10.0]",
+        ),
+    ];
+    for ((from, to), message) in cases {
+        assert!(scene.contains(from), "{from}");
+        assert_eq!(error_of(&scene.replace(from, to), &[]), message);
+    }
+    let quad = format!(
+        "{CAMERA}[[lights]]\ntype = \"quad\"\ncorner = [0.0, 3.0, 0.0]\nedge_u = [1.0, 0.0, 0.0]\n\
+         edge_v = [0.0, 0.0, 1.0]\nradiance = [1e21, 0.0, 0.0]\n"
+    );
+    assert_eq!(
+        error_of(&quad, &[]),
+        "lights[0].radiance: components must be at most 1e20, got [1e21, 0.0, 0.0]"
+    );
+    // The largest accepted still loads.
+    let strongest = scene.replace(
+        "intensity = [10.0, 10.0, 10.0]",
+        "intensity = [1e20, 0.0, 0.0]",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, strongest).unwrap();
+    assert!(load_scene(&path).is_ok());
+}
+
 #[test]
 fn a_missing_scene_file_is_an_error() {
     let e = load_scene(Path::new("/nonexistent/scene.toml"))

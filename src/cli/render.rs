@@ -19,6 +19,9 @@ use photondiff::scene::file::load_scene;
 use photondiff::scene::hash::{hex, scene_hash};
 use std::path::{Path, PathBuf};
 
+/// The longest `--time-budget` taken, in seconds: 365 days.
+const MAX_TIME_BUDGET: f64 = 31_536_000.0;
+
 #[derive(clap::Args)]
 pub struct RenderArgs {
     /// The scene file (TOML; see README.md for the format).
@@ -142,7 +145,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", allow_negative_numbers = true)]
     passes: Option<String>,
     /// Photon estimates and `direct`: stop after the last whole pass that fits in SECONDS (at
-    /// least one pass). `lighttrace`: stop after SECONDS even if fewer paths are traced.
+    /// least one pass). `lighttrace`: stop after SECONDS even if fewer paths are traced. At
+    /// most 31536000 (a year).
     #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
     time_budget: Option<f64>,
     /// Stop the passes once the estimated relative standard error of the mean (the larger of
@@ -586,6 +590,13 @@ fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
         if !(t.is_finite() && t > 0.0) {
             return Err(format!(
                 "--time-budget must be a positive number of seconds, got {t}"
+            ));
+        }
+        // A clock deadline must be representable (`Duration` panics past about 1.8e19 s);
+        // no render needs more than a year.
+        if t > MAX_TIME_BUDGET {
+            return Err(format!(
+                "--time-budget must be at most {MAX_TIME_BUDGET} seconds (a year), got {t:e}"
             ));
         }
     }

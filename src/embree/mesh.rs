@@ -2,6 +2,10 @@
 
 use glam::DVec3;
 
+/// Vertex coordinates must be smaller than this in magnitude: Debian's Embree asserts on
+/// coordinates past about 1.8e18, and a margin below that keeps its bounds arithmetic finite.
+pub const MAX_COORDINATE: f32 = 1.0e18;
+
 /// A triangle mesh as Embree takes it: vertex positions, optional per-vertex normals (for
 /// interpolated shading normals) and triangles as vertex index triples.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -35,10 +39,17 @@ impl TriangleMesh {
     /// Checks what Embree would otherwise silently drop or mis-handle: non-finite or huge
     /// vertices, out-of-range indices, zero-area triangles, mismatched or zero normals.
     pub fn validate(&self) -> Result<(), String> {
-        let finite = |p: &[f32; 3]| p.iter().all(|c| c.is_finite() && c.abs() < 1.0e18);
+        let finite = |p: &[f32; 3]| p.iter().all(|c| c.is_finite() && c.abs() < MAX_COORDINATE);
         // Embree drops such vertices' triangles silently, and a huge one trips its assertions.
         if let Some(i) = self.positions.iter().position(|p| !finite(p)) {
-            return Err(format!("vertex {i} is not finite: {:?}", self.positions[i]));
+            let p = self.positions[i];
+            return Err(if p.iter().all(|c| c.is_finite()) {
+                format!(
+                    "vertex {i} lies beyond the coordinates Embree takes (|x| < {MAX_COORDINATE:e}): {p:?}"
+                )
+            } else {
+                format!("vertex {i} is not finite: {p:?}")
+            });
         }
         if self.positions.len() >= u32::MAX as usize {
             return Err("too many vertices".into());

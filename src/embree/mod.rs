@@ -39,7 +39,7 @@ mod v4;
 pub use bounds::GeometryBounds;
 pub use device::{Device, EmbreeError, EmbreeMemory};
 pub use hit::Hit;
-pub use mesh::TriangleMesh;
+pub use mesh::{TriangleMesh, MAX_COORDINATE};
 pub use query::RawRays;
 pub use ray::Ray;
 pub use scene::{BvhQuality, BvhSettings, Scene, SceneBuilder};

@@ -3,6 +3,7 @@
 //! Every problem is an error that names the file and the line or field at fault; nothing here
 //! panics on bad input.
 
+use crate::embree::MAX_COORDINATE;
 use crate::scene::camera::Camera;
 use crate::scene::instances::{InstanceDesc, MeshDesc};
 use crate::scene::mesh_file::{load_mesh_with_report, MeshReport};
@@ -134,6 +135,34 @@ fn vec3(field: &str, v: Vec3) -> Result<DVec3, String> {
     }
 }
 
+/// A point rays start from (the eye, a light): within the coordinates Embree takes, or every ray
+/// from it would be refused as invalid and the image would come out black without a word.
+fn point(field: &str, v: Vec3) -> Result<DVec3, String> {
+    let d = vec3(field, v)?;
+    let limit = f64::from(MAX_COORDINATE);
+    if d.abs().max_element() >= limit {
+        return Err(format!(
+            "{field}: must lie within the coordinates Embree takes (|x| < {MAX_COORDINATE:e}), got {v:?}"
+        ));
+    }
+    Ok(d)
+}
+
+/// Largest light intensity (W/sr) or radiance (W/(m^2 sr)) accepted: photon powers and pixels
+/// are single precision (at most 3.4e38), and a stronger light comes out as infinity.
+pub const MAX_LIGHT: f64 = 1.0e20;
+
+/// A light's intensity or radiance: non-negative and at most [`MAX_LIGHT`].
+fn emission(field: &str, v: Vec3) -> Result<DVec3, String> {
+    let d = non_negative(field, v)?;
+    if d.max_element() > MAX_LIGHT {
+        return Err(format!(
+            "{field}: components must be at most {MAX_LIGHT:e}, got {v:?}"
+        ));
+    }
+    Ok(d)
+}
+
 fn non_negative(field: &str, v: Vec3) -> Result<DVec3, String> {
     let d = vec3(field, v)?;
     if d.min_element() < 0.0 {
@@ -177,7 +206,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
             ));
         }
     }
-    let eye = vec3("camera.eye", c.eye)?;
+    let eye = point("camera.eye", c.eye)?;
     let look_at = vec3("camera.look_at", c.look_at)?;
     let up = vec3("camera.up", c.up)?;
     if eye == look_at {
@@ -334,8 +363,8 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 position,
                 intensity,
             } => Light::Point {
-                position: vec3(&format!("{field}.position"), position)?,
-                intensity: non_negative(&format!("{field}.intensity"), intensity)?,
+                position: point(&format!("{field}.position"), position)?,
+                intensity: emission(&format!("{field}.intensity"), intensity)?,
             },
             LightDesc::Spot {
                 position,
@@ -363,9 +392,9 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                     ));
                 }
                 Light::Spot {
-                    position: vec3(&format!("{field}.position"), position)?,
+                    position: point(&format!("{field}.position"), position)?,
                     direction,
-                    intensity: non_negative(&format!("{field}.intensity"), intensity)?,
+                    intensity: emission(&format!("{field}.intensity"), intensity)?,
                     cos_cone: cone.to_radians().cos(),
                     cos_falloff_start: start.to_radians().cos(),
                 }
@@ -377,7 +406,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 radiance,
             } => {
                 let [c, u, v] = parallelogram(&field, corner, edge_u, edge_v)?;
-                let radiance = non_negative(&format!("{field}.radiance"), radiance)?;
+                let radiance = emission(&format!("{field}.radiance"), radiance)?;
                 meshes.push(SceneMesh {
                     name: format!("{field} (quad light)"),
                     mesh: Arc::new(shapes::quad(c, u, v)),
