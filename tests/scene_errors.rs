@@ -294,3 +294,81 @@ fn the_command_line_fails_cleanly_and_renders_good_scenes() {
     assert_eq!(json["rays"]["camera"], 2 * 32 * 24 * 4);
     assert_eq!(json["threads"], 1);
 }
+
+/// Outputs that would land on the scene, on a part being merged or on one another are refused
+/// before any work, and the files are left as they were (the scene used to become an EXR).
+#[test]
+fn outputs_may_not_overwrite_inputs_or_each_other() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let text = format!("{CAMERA}{REST}");
+    std::fs::write(&scene, &text).unwrap();
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    let scene_path = scene.display().to_string();
+    let cases: Vec<(Vec<String>, String)> = vec![
+        (
+            vec!["render".into(), scene_path.clone(), "-o".into(), scene_path.clone()],
+            format!("-o names the scene ({scene_path}): the run would overwrite it"),
+        ),
+        (
+            vec!["render".into(), scene_path.clone(), "-o".into(), at("x.png")],
+            format!(
+                "the PNG preview (-o with .png) and -o name the same file ({}): each output needs its own",
+                at("x.png")
+            ),
+        ),
+        (
+            vec![
+                "render".into(),
+                scene_path.clone(),
+                "-o".into(),
+                at("y.exr"),
+                "--stats-json".into(),
+                at("y.exr"),
+            ],
+            format!(
+                "--stats-json and -o name the same file ({}): each output needs its own",
+                at("y.exr")
+            ),
+        ),
+        (
+            vec!["photons".into(), scene_path.clone(), "-o".into(), scene_path.clone()],
+            format!("-o names the scene ({scene_path}): the run would overwrite it"),
+        ),
+        (
+            vec!["merge".into(), at("p0.exr"), at("p1.exr"), "-o".into(), at("p1.exr")],
+            format!(
+                "-o names the part being merged ({}): the run would overwrite it",
+                at("p1.exr")
+            ),
+        ),
+        (
+            vec![
+                "reference".into(),
+                scene_path.clone(),
+                "-o".into(),
+                at("r.exr"),
+                "--merge".into(),
+                at("r.exr"),
+                at("s.exr"),
+            ],
+            format!(
+                "-o names the reference being merged ({}): the run would overwrite it",
+                at("r.exr")
+            ),
+        ),
+    ];
+    for (args, message) in cases {
+        let out = Command::new(exe).args(&args).output().unwrap();
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        assert_eq!(
+            String::from_utf8_lossy(&out.stderr),
+            format!("photondiff: error: {message}\n"),
+            "{args:?}"
+        );
+    }
+    assert_eq!(std::fs::read_to_string(&scene).unwrap(), text);
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(names.len(), 1, "only the scene: {names:?}");
+}

@@ -24,16 +24,29 @@ pub struct MergeArgs {
 
 /// Runs `photondiff merge`; nothing is written unless every check passes.
 pub fn run(args: &MergeArgs) -> Result<(), String> {
+    let png = args
+        .png
+        .clone()
+        .unwrap_or_else(|| args.output.with_extension("png"));
+    let png_flag = if args.png.is_some() {
+        "--png"
+    } else {
+        "the PNG preview (-o with .png)"
+    };
+    let mut outputs = vec![("-o", args.output.as_path()), (png_flag, png.as_path())];
+    outputs.extend(args.stats_json.as_deref().map(|p| ("--stats-json", p)));
+    let inputs: Vec<_> = args
+        .parts
+        .iter()
+        .map(|p| ("part being merged", p.as_path()))
+        .collect();
+    super::check_outputs(&outputs, &inputs)?;
     let parts = args
         .parts
         .iter()
         .map(|p| read_part(p))
         .collect::<Result<Vec<_>, _>>()?;
     let merged = merge(&parts)?;
-    let png = args
-        .png
-        .clone()
-        .unwrap_or_else(|| args.output.with_extension("png"));
     create_parent(&args.output)?;
     create_parent(&png)?;
     merged.film.write_exr(&args.output, &merged.metadata)?;

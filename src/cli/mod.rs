@@ -9,7 +9,7 @@ pub mod reference;
 pub mod render;
 pub mod report;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// The most worker threads `--threads` takes: far beyond any machine this runs on, and low
 /// enough that asking for a typo's worth (100000) is refused in one line instead of the
@@ -32,5 +32,89 @@ pub fn create_parent(path: &Path) -> Result<(), String> {
         Some(dir) if !dir.as_os_str().is_empty() => std::fs::create_dir_all(dir)
             .map_err(|e| format!("{}: cannot create folder: {e}", dir.display())),
         _ => Ok(()),
+    }
+}
+
+/// The path as the file system will resolve it, for comparing paths: absolute, and through
+/// the symbolic links of the part that exists (`a/../b.exr` and `./b.exr` are one file).
+fn resolved(path: &Path) -> PathBuf {
+    if let Ok(p) = std::fs::canonicalize(path) {
+        return p;
+    }
+    let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
+    match (absolute.parent(), absolute.file_name()) {
+        (Some(dir), Some(name)) => std::fs::canonicalize(dir)
+            .map(|d| d.join(name))
+            .unwrap_or(absolute.clone()),
+        _ => absolute,
+    }
+}
+
+/// Refuses, before any work, outputs that would land on one another or on an input: each
+/// output, named by its option (`("-o", path)`), must be a file of its own, and none may be
+/// one of `inputs` (the scene, parts being merged), which the run would otherwise overwrite
+/// with its result.
+pub fn check_outputs(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), String> {
+    for (k, (flag, path)) in outputs.iter().enumerate() {
+        let here = resolved(path);
+        for (other, other_path) in &outputs[..k] {
+            if resolved(other_path) == here {
+                return Err(format!(
+                    "{flag} and {other} name the same file ({}): each output needs its own",
+                    path.display()
+                ));
+            }
+        }
+        for (what, input) in inputs {
+            if resolved(input) == here {
+                return Err(format!(
+                    "{flag} names the {what} ({}): the run would overwrite it",
+                    path.display()
+                ));
+            }
+        }
+        if here.is_dir() {
+            return Err(format!("{flag}: {} is a folder", path.display()));
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn outputs_on_each_other_or_on_an_input_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = dir.path().join("s.toml");
+        std::fs::write(&scene, "x").unwrap();
+        let exr = dir.path().join("a.exr");
+        let png = dir.path().join("a.png");
+        assert_eq!(
+            check_outputs(&[("-o", &exr), ("--png", &png)], &[("scene", &scene)]),
+            Ok(())
+        );
+        // The same file spelt another way.
+        let again = dir.path().join("sub/../a.exr");
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        assert_eq!(
+            check_outputs(&[("-o", &exr), ("--png", &again)], &[]),
+            Err(format!(
+                "--png and -o name the same file ({}): each output needs its own",
+                again.display()
+            ))
+        );
+        assert_eq!(
+            check_outputs(&[("-o", &scene)], &[("scene", &scene)]),
+            Err(format!(
+                "-o names the scene ({}): the run would overwrite it",
+                scene.display()
+            ))
+        );
+        assert_eq!(
+            check_outputs(&[("-o", dir.path())], &[]),
+            Err(format!("-o: {} is a folder", dir.path().display()))
+        );
     }
 }

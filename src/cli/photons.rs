@@ -55,6 +55,7 @@ pub struct PhotonsArgs {
 /// Runs `photondiff photons`.
 pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     super::check_threads(args.threads)?;
+    super::check_outputs(&[("-o", &args.output)], &[("scene", &args.scene)])?;
     if !(args.overlap.is_finite() && args.overlap > 0.0) {
         return Err(format!(
             "--overlap must be a positive number, got {}",

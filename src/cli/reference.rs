@@ -115,6 +115,31 @@ fn read_parts(parts: &[PathBuf]) -> Result<(Vec<Reference>, String), String> {
 /// Runs `photondiff reference`.
 pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     super::check_threads(args.threads)?;
+    // The reference and its two halves, none of them the scene or a part being merged (or a
+    // part's halves, which are read too).
+    let (a, b) = (half_path(&args.output, "a"), half_path(&args.output, "b"));
+    let outputs = [
+        ("-o", args.output.as_path()),
+        ("-o's half a", &a),
+        ("-o's half b", &b),
+    ];
+    let halves: Vec<PathBuf> = args
+        .merge
+        .iter()
+        .flat_map(|p| [half_path(p, "a"), half_path(p, "b")])
+        .collect();
+    let mut inputs = vec![("scene", args.scene.as_path())];
+    inputs.extend(
+        args.merge
+            .iter()
+            .map(|p| ("reference being merged", p.as_path())),
+    );
+    inputs.extend(
+        halves
+            .iter()
+            .map(|p| ("half of a reference being merged", p.as_path())),
+    );
+    super::check_outputs(&outputs, &inputs)?;
     let grids = match args.direct_grids[..] {
         [a, b] if a != b && (1..=64).contains(&a) && (1..=64).contains(&b) => [a, b],
         _ => {

@@ -198,6 +198,25 @@ pub struct RenderArgs {
     quiet: bool,
 }
 
+/// The EXR and PNG paths of a render: `-o` (default `out/SCENE.exr`) and `--png` (default
+/// the EXR's path with `.png`).
+fn output_paths(args: &RenderArgs) -> (PathBuf, PathBuf) {
+    let stem = args
+        .scene
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "render".into());
+    let exr = args
+        .output
+        .clone()
+        .unwrap_or_else(|| Path::new("out").join(format!("{stem}.exr")));
+    let png = args
+        .png
+        .clone()
+        .unwrap_or_else(|| exr.with_extension("png"));
+    (exr, png)
+}
+
 /// Runs `photondiff render`.
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     super::check_threads(args.threads)?;
@@ -218,6 +237,22 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             "finishing the pass under way, then writing the mean of the passes done"
         });
     }
+    let (exr, png) = output_paths(args);
+    let png_flag = if args.png.is_some() {
+        "--png"
+    } else {
+        "the PNG preview (-o with .png)"
+    };
+    let mut outputs = vec![("-o", exr.as_path()), (png_flag, png.as_path())];
+    outputs.extend(args.stats_json.as_deref().map(|p| ("--stats-json", p)));
+    outputs.extend(args.trace.as_deref().map(|p| ("--trace", p)));
+    let mut inputs = vec![("scene", args.scene.as_path())];
+    inputs.extend(
+        args.photon_maps
+            .as_deref()
+            .map(|p| ("--photon-maps file", p)),
+    );
+    super::check_outputs(&outputs, &inputs)?;
     let mut range_sum = None;
     if let Some(path) = &args.trace {
         // Refuse an unwritable path now rather than after the render.
@@ -409,19 +444,6 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         args.caustic_photons.is_some(),
         args.global_photons.is_some(),
     );
-    let stem = args
-        .scene
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "render".into());
-    let exr = args
-        .output
-        .clone()
-        .unwrap_or_else(|| Path::new("out").join(format!("{stem}.exr")));
-    let png = args
-        .png
-        .clone()
-        .unwrap_or_else(|| exr.with_extension("png"));
     let mut metadata = vec![
         (
             "photondiff/scene".to_string(),

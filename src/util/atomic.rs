@@ -1,6 +1,11 @@
 //! Atomic file output: everything is written to a temporary file in the destination's folder
 //! and renamed over the destination only once complete, so a killed or failing job never leaves
 //! a file that looks finished (rename within one file system is atomic on POSIX).
+//!
+//! A destination that is a symbolic link is followed: the file it names is replaced and the
+//! link kept. One that exists and is not a regular file (`/dev/null`, a named pipe) is written
+//! in place: renaming over it would replace a device node with a file (as root, `-o /dev/null`
+//! did).
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -22,6 +27,24 @@ pub fn write_with(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 ) -> Result<(), String> {
+    let named = path;
+    let cannot = |e: std::io::Error| format!("{}: cannot write: {e}", named.display());
+    // Through symbolic links (`metadata` follows them) to what the path names.
+    if let Ok(meta) = std::fs::metadata(path) {
+        if !meta.is_file() && !meta.is_dir() {
+            let file = std::fs::OpenOptions::new().write(true).open(path);
+            let mut out = BufWriter::new(file.map_err(cannot)?);
+            write(&mut out).map_err(cannot)?;
+            return out.flush().map_err(cannot);
+        }
+    }
+    let target;
+    let path = if path.is_symlink() {
+        target = std::fs::canonicalize(path).map_err(cannot)?;
+        target.as_path()
+    } else {
+        path
+    };
     let tmp = temporary(path);
     let result = (|| {
         let mut out = BufWriter::new(File::create(&tmp)?);
@@ -32,7 +55,7 @@ pub fn write_with(
     })();
     result.map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
-        format!("{}: cannot write: {e}", path.display())
+        cannot(e)
     })
 }
 
@@ -68,6 +91,38 @@ mod tests {
         assert!(err.ends_with("cannot write: disk full"), "{err}");
         assert_eq!(std::fs::read(&path).unwrap(), b"old");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_symbolic_link_is_followed_and_kept() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = dir.path().join("target.bin");
+        std::fs::write(&target, b"old").unwrap();
+        let link = dir.path().join("link.bin");
+        std::os::unix::fs::symlink(&target, &link).unwrap();
+        write_bytes(&link, b"new").unwrap();
+        assert!(link.is_symlink());
+        assert_eq!(std::fs::read(&target).unwrap(), b"new");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+    }
+
+    #[test]
+    fn a_named_pipe_is_written_in_place_not_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let pipe = dir.path().join("pipe");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&pipe)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        let reader = {
+            let pipe = pipe.clone();
+            std::thread::spawn(move || std::fs::read(pipe).unwrap())
+        };
+        write_bytes(&pipe, b"through the pipe").unwrap();
+        assert_eq!(reader.join().unwrap(), b"through the pipe");
+        let meta = std::fs::symlink_metadata(&pipe).unwrap();
+        assert!(std::os::unix::fs::FileTypeExt::is_fifo(&meta.file_type()));
     }
 
     #[test]
