@@ -51,8 +51,9 @@ fn render(scene: &Path, name: &str) -> (serde_json::Value, Vec<glam::DVec3>) {
 
 const MESHES: &str = "[meshes.ball]\nfile = \"ball.ply\"\n";
 
-#[test]
-fn an_instanced_glass_sphere_renders_as_the_sphere_placed_directly() {
+/// Renders the glass ball placed by `placement` (lines of an `[[instances]]` entry) and the
+/// sphere placed directly, and checks that they agree.
+fn renders_as_the_sphere_placed_directly(placement: &str) {
     let dir = tempfile::tempdir().unwrap();
     write_ball(dir.path());
     let direct = scene(
@@ -60,14 +61,10 @@ fn an_instanced_glass_sphere_renders_as_the_sphere_placed_directly() {
         "direct.toml",
         "[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\nmaterial = \"glass\"\n",
     );
-    // Rotated about y, so the transform matters (a sphere looks the same, its triangles don't).
     let instanced = scene(
         dir.path(),
         "instanced.toml",
-        &format!(
-            "{MESHES}[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\n\
-             translate = [0.0, 1.0, 0.0]\nrotate = [0.0, 30.0, 0.0]\nscale = 1.0\n"
-        ),
+        &format!("{MESHES}[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\n{placement}"),
     );
     let (a, direct_pixels) = render(&direct, "direct");
     let (b, instanced_pixels) = render(&instanced, "instanced");
@@ -86,9 +83,26 @@ fn an_instanced_glass_sphere_renders_as_the_sphere_placed_directly() {
         .sum();
     let n = direct_pixels.len() as f64 * 3.0;
     let rel_rmse = (se / n).sqrt() / (sum(&direct_pixels) / n);
-    // Measured 2.2e-4 (the same photons; vertices rounded to f32 after the rotation).
-    assert!(rel_rmse < 0.005, "relRMSE {rel_rmse}");
+    // Measured 2.2e-4 for the rotation (the same photons; vertices rounded to f32 after it).
+    assert!(rel_rmse < 0.005, "{placement}: relRMSE {rel_rmse}");
     assert!((sum(&instanced_pixels) / sum(&direct_pixels) - 1.0).abs() < 0.002);
+}
+
+#[test]
+fn an_instanced_glass_sphere_renders_as_the_sphere_placed_directly() {
+    // Rotated about y, so the transform matters (a sphere looks the same, its triangles don't).
+    renders_as_the_sphere_placed_directly(
+        "translate = [0.0, 1.0, 0.0]\nrotate = [0.0, 30.0, 0.0]\nscale = 1.0\n",
+    );
+}
+
+/// A mirroring scale reverses the triangles' winding; the geometric normal must still point
+/// out of the glass (it pointed in: the caustic vanished and the image filled with speckle).
+#[test]
+fn a_mirrored_glass_sphere_keeps_its_inside_in() {
+    renders_as_the_sphere_placed_directly(
+        "translate = [0.0, 1.0, 0.0]\nrotate = [0.0, 30.0, 0.0]\nscale = [1.0, -1.0, 1.0]\n",
+    );
 }
 
 #[test]
@@ -217,6 +231,33 @@ fn bad_instances_are_one_line_errors_naming_the_element() {
             "instances[0].scale: a zero scale makes the transform singular, got [1.0, 0.0, 1.0]"
         ),
         "{e}"
+    );
+    // Embree maps rays into the instance's space: a scale of 1e-30 made them huge and
+    // Debian's Embree aborted the process.
+    let tiny = scene(
+        dir.path(),
+        "tiny.toml",
+        &format!("{MESHES}[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\nscale = 1e-30\n"),
+    );
+    assert!(
+        error(&tiny).ends_with(
+            "instances[0].scale: each component's magnitude must be in [1e-6, 1e6], got [1e-30, 1e-30, 1e-30]"
+        ),
+        "{}",
+        error(&tiny)
+    );
+    // Placed beyond the coordinates Embree takes, it used to vanish without a word.
+    let far = scene(
+        dir.path(),
+        "far.toml",
+        &format!("{MESHES}[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\ntranslate = [2e18, 0.0, 0.0]\n"),
+    );
+    assert!(
+        error(&far).ends_with(
+            "instances[0]: the placed mesh reaches 2e18, beyond the coordinates Embree takes (|x| < 1e18)"
+        ),
+        "{}",
+        error(&far)
     );
     let missing = scene(
         dir.path(),

@@ -94,8 +94,17 @@ impl Scene {
         t: f32,
     ) -> Hit {
         let geom_id = top_level(geom_id, inst_id);
-        let triangle = self.geometries[geom_id as usize].world_triangle(prim_id);
-        complete_hit(ray, geom_id, prim_id, u, v, t, triangle)
+        let geometry = &self.geometries[geom_id as usize];
+        let (u, v) = geometry.barycentrics(u, v);
+        complete_hit(
+            ray,
+            geom_id,
+            prim_id,
+            u,
+            v,
+            t,
+            geometry.world_triangle(prim_id),
+        )
     }
 }
 

@@ -193,11 +193,12 @@ impl Scene {
             vertices[l] = self.geometries[ids[l] as usize].world_vertices(triangles[l]);
         }
         for l in hit_lanes() {
+            let (u, v) = self.geometries[ids[l] as usize].barycentrics(h.u[l], h.v[l]);
             let answer = LaneHit {
                 id: ids[l],
                 prim: h.primID[l],
-                u: h.u[l],
-                v: h.v[l],
+                u,
+                v,
                 tfar: r.tfar[l],
                 vertices: vertices[l],
             };

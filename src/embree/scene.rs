@@ -25,6 +25,12 @@ pub(super) struct Placement {
     to_world: DAffine3,
     /// `to_world`'s inverse transpose (linear part): what normals transform with.
     normal_matrix: DMat3,
+    /// Whether `to_world` mirrors (a negative determinant: an odd number of negative scale
+    /// factors). It reverses the triangles' winding, so the world-space vertices are handed
+    /// out with their second and third swapped (and Embree's `u`, `v` with them,
+    /// [`Geometry::barycentrics`]): the geometric normal `(p1 - p0) x (p2 - p0)` then keeps
+    /// the side the mesh file gave it, and glass keeps its inside in.
+    mirrored: bool,
 }
 
 impl Geometry {
@@ -63,10 +69,29 @@ impl Geometry {
         let n = self.mesh.normals.as_deref().map(at);
         match &self.instance {
             None => (p, n),
-            Some(placement) => (
-                p.map(|x| placement.to_world.transform_point3(x)),
-                n.map(|n| n.map(|x| placement.normal_matrix * x)),
-            ),
+            Some(placement) => {
+                let order = |[a, b, c]: [DVec3; 3]| {
+                    if placement.mirrored {
+                        [a, c, b]
+                    } else {
+                        [a, b, c]
+                    }
+                };
+                (
+                    order(p.map(|x| placement.to_world.transform_point3(x))),
+                    n.map(|n| order(n.map(|x| placement.normal_matrix * x))),
+                )
+            }
+        }
+    }
+
+    /// Embree's barycentrics `(u, v)` of a hit, in the vertex order of
+    /// [`Geometry::world_vertices`] (swapped for a mirroring instance).
+    #[inline]
+    pub(super) fn barycentrics(&self, u: f32, v: f32) -> (f32, f32) {
+        match &self.instance {
+            Some(placement) if placement.mirrored => (v, u),
+            _ => (u, v),
         }
     }
 }
@@ -177,6 +202,7 @@ impl SceneBuilder {
             instance: Some(Placement {
                 to_world,
                 normal_matrix: linear.inverse().transpose(),
+                mirrored: linear.determinant() < 0.0,
             }),
         });
         Ok(self.geometries.len() as u32 - 1)

@@ -163,6 +163,44 @@ fn emission(field: &str, v: Vec3) -> Result<DVec3, String> {
     Ok(d)
 }
 
+/// The bounding box `[lo, hi]` of a mesh's vertices (lo > hi for none).
+fn vertex_bounds(mesh: &crate::embree::TriangleMesh) -> [DVec3; 2] {
+    mesh.positions
+        .iter()
+        .fold([DVec3::INFINITY, DVec3::NEG_INFINITY], |[lo, hi], p| {
+            let p = DVec3::from(p.map(f64::from));
+            [lo.min(p), hi.max(p)]
+        })
+}
+
+/// An instance's mesh (its vertices' bounds `[lo, hi]`), placed by `to_world`, must stay within the coordinates Embree takes
+/// (as a shape's vertices must): beyond them its rays are refused and it vanishes.
+fn check_placed_bounds(
+    field: &str,
+    [lo, hi]: [DVec3; 2],
+    to_world: &glam::DAffine3,
+) -> Result<(), String> {
+    if lo.x > hi.x {
+        return Ok(()); // No vertex.
+    }
+    let limit = f64::from(MAX_COORDINATE);
+    let corners = (0..8).map(|k| {
+        let pick = |bit: usize, a: f64, b: f64| if k & bit == 0 { a } else { b };
+        to_world.transform_point3(DVec3::new(
+            pick(1, lo.x, hi.x),
+            pick(2, lo.y, hi.y),
+            pick(4, lo.z, hi.z),
+        ))
+    });
+    let reach = corners.fold(0.0f64, |m, c| m.max(c.abs().max_element()));
+    if reach.is_nan() || reach >= limit {
+        return Err(format!(
+            "{field}: the placed mesh reaches {reach:e}, beyond the coordinates Embree takes (|x| < {MAX_COORDINATE:e})"
+        ));
+    }
+    Ok(())
+}
+
 fn non_negative(field: &str, v: Vec3) -> Result<DVec3, String> {
     let d = vec3(field, v)?;
     if d.min_element() < 0.0 {
@@ -315,7 +353,8 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
 
     // Each instanced mesh is loaded once, by its first instance, and shared by the others;
     // its load report goes with that first instance only, so that counts are not repeated.
-    let mut loaded: BTreeMap<&str, Arc<crate::embree::TriangleMesh>> = BTreeMap::new();
+    let mut loaded: BTreeMap<&str, (Arc<crate::embree::TriangleMesh>, [DVec3; 2])> =
+        BTreeMap::new();
     for (i, inst) in file.instances.iter().enumerate() {
         let field = format!("instances[{i}]");
         let to_world = inst.transform(&field)?;
@@ -333,8 +372,8 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
             ));
         };
         let mut report = MeshReport::default();
-        let mesh = match loaded.get(inst.mesh.as_str()) {
-            Some(mesh) => mesh.clone(),
+        let (mesh, bounds) = match loaded.get(inst.mesh.as_str()) {
+            Some((mesh, bounds)) => (mesh.clone(), *bounds),
             None => {
                 let path = base.join(&desc.file);
                 let mut m = load_mesh_with_report(&path)
@@ -342,10 +381,12 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 report = m.report;
                 m.mesh.reserve_padding();
                 let mesh = Arc::new(m.mesh);
-                loaded.insert(&inst.mesh, mesh.clone());
-                mesh
+                let bounds = vertex_bounds(&mesh);
+                loaded.insert(&inst.mesh, (mesh.clone(), bounds));
+                (mesh, bounds)
             }
         };
+        check_placed_bounds(&field, bounds, &to_world)?;
         meshes.push(SceneMesh {
             name: format!("{field} (instance of mesh {})", inst.mesh),
             mesh,

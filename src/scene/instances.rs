@@ -5,6 +5,12 @@
 use glam::{DAffine3, DMat3, DQuat, DVec3, EulerRot};
 use serde::Deserialize;
 
+/// The smallest and largest magnitude of an instance's scale factors: a million times smaller
+/// or larger than the mesh file (micrometres to metres and back) covers any modelling unit.
+pub const MIN_SCALE: f64 = 1e-6;
+/// See [`MIN_SCALE`].
+pub const MAX_SCALE: f64 = 1e6;
+
 /// `scale = 2.0` (uniform) or `scale = [sx, sy, sz]` (per axis).
 #[derive(Deserialize, Debug, Clone, Copy)]
 #[serde(untagged)]
@@ -59,6 +65,15 @@ impl InstanceDesc {
         if s.contains(&0.0) {
             return Err(format!(
                 "{field}.scale: a zero scale makes the transform singular, got {s:?}"
+            ));
+        }
+        // Embree maps every ray into the instance's own space by the inverse transform: a
+        // scale of 1e-30 made those rays huge, and Debian's Embree aborted the process on them.
+        if s.iter()
+            .any(|c| !(MIN_SCALE..=MAX_SCALE).contains(&c.abs()))
+        {
+            return Err(format!(
+                "{field}.scale: each component's magnitude must be in [{MIN_SCALE:e}, {MAX_SCALE:e}], got {s:?}"
             ));
         }
         let [rx, ry, rz] = r.map(f64::to_radians);
