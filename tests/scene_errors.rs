@@ -217,6 +217,10 @@ fn unrenderable_eyes_lights_and_intensities_are_refused() {
             "lights[0].position: must lie within the coordinates Embree takes (|x| < 1e18), got [0.0, -2e18, 0.0]",
         ),
         (
+            ("width = 32\nheight = 24", "width = 32768\nheight = 32768"),
+            "camera: width x height must be at most 134217728 pixels (about 50 bytes each in memory), got 32768 x 32768 = 1073741824",
+        ),
+        (
             ("intensity = [10.0, 10.0, 10.0]", "intensity = [10.0, 1e300, 10.0]"),
             "lights[0].intensity: components must be at most 1e20, got [10.0, 1e300, 10.0]",
         ),
@@ -371,4 +375,47 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
     assert_eq!(std::fs::read_to_string(&scene).unwrap(), text);
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
     assert_eq!(names.len(), 1, "only the scene: {names:?}");
+}
+
+/// Path counts past the cap are refused by the option parser (2^64 - 1 paths tried to
+/// allocate petabytes for their schedule and aborted).
+#[test]
+fn light_path_counts_past_the_cap_are_refused_at_once() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, format!("{CAMERA}{REST}")).unwrap();
+    let out = dir.path().join("x.exr");
+    let cases: [&[&str]; 3] = [
+        &[
+            "render",
+            "--estimator",
+            "lighttrace",
+            "--light-paths",
+            "18446744073709551615",
+        ],
+        &["reference", "--light-paths", "100000000001"],
+        &["reference", "--caustic-paths", "18446744073709551615"],
+    ];
+    for args in cases {
+        let run = Command::new(exe)
+            .args(&args[..1])
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .args(&args[1..])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{args:?}: {stderr}");
+        let flag = args[args.len() - 2];
+        let value = args[args.len() - 1];
+        assert!(
+            stderr.starts_with(&format!(
+                "error: invalid value '{value}' for '{flag} <N>': {value} is not in 0..=100000000000"
+            )),
+            "{args:?}: {stderr}"
+        );
+    }
+    assert!(!out.exists());
 }

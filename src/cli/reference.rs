@@ -4,6 +4,7 @@
 use super::create_parent;
 use photondiff::embree::Device;
 use photondiff::reference::cache::{make, merge, Reference, ReferenceSettings};
+use photondiff::reference::light_tracer::MAX_PATHS;
 use photondiff::reference::metrics::Regions;
 use photondiff::render::film::Film;
 use photondiff::render::part::{read_part, Part};
@@ -21,11 +22,15 @@ pub struct ReferenceArgs {
     /// Output EXR; the halves go to OUT-a.exr and OUT-b.exr beside it.
     #[arg(short = 'o', long = "output", value_name = "OUT.exr")]
     output: PathBuf,
-    /// Light paths leaving the lights in every direction (light that bounced at least once).
-    #[arg(long, value_name = "N", default_value_t = 1_000_000_000)]
+    /// Light paths leaving the lights in every direction (light that bounced at least once);
+    /// at most 10^11, in whole chunks of 65536.
+    #[arg(long, value_name = "N", default_value_t = 1_000_000_000,
+          value_parser = clap::value_parser!(u64).range(..=MAX_PATHS))]
     light_paths: u64,
-    /// Light paths aimed at the mirror and glass meshes (caustics).
-    #[arg(long, value_name = "N", default_value_t = 1_000_000_000)]
+    /// Light paths aimed at the mirror and glass meshes (caustics); at most 10^11, in whole
+    /// chunks of 65536.
+    #[arg(long, value_name = "N", default_value_t = 1_000_000_000,
+          value_parser = clap::value_parser!(u64).range(..=MAX_PATHS))]
     caustic_paths: u64,
     /// Camera rays per pixel along each axis for the direct light of half A and half B.
     #[arg(long, value_name = "A,B", value_delimiter = ',', default_values_t = [16, 17])]

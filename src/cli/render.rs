@@ -6,7 +6,7 @@ use photondiff::estimate::final_gather::{MAX_GATHER_RAYS, MAX_NEAR_REACH, NEAR_R
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::map::PathClass;
 use photondiff::photons::trace::PhotonOptions;
-use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
+use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer, MAX_PATHS};
 use photondiff::render::pass_part::write_pass_part;
 use photondiff::render::passes::{
     PassReport, RenderDefaults, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA, DEFAULT_PASSES,
@@ -133,8 +133,10 @@ pub struct RenderArgs {
     /// maps).
     #[arg(long, value_name = "BOOL", action = clap::ArgAction::Set)]
     probe_walls: Option<bool>,
-    /// Light paths traced by `--estimator lighttrace`.
-    #[arg(long, value_name = "N", default_value_t = 20_000_000)]
+    /// Light paths traced by `--estimator lighttrace`: at most 10^11, rounded up to whole
+    /// chunks of 65536.
+    #[arg(long, value_name = "N", default_value_t = 20_000_000,
+          value_parser = clap::value_parser!(u64).range(..=MAX_PATHS))]
     light_paths: u64,
     /// Progressive passes: the image is the mean of N independent passes (fresh photons with
     /// shrinking footprints, jittered camera rays). Default 2 for `integrated` (the default

@@ -39,6 +39,12 @@ use std::time::{Duration, Instant};
 /// Paths per chunk (the unit of parallel work and of the two halves).
 pub const CHUNK: u64 = 1 << 16;
 
+/// The most light paths of one set a run takes: 10^11, hours of tracing on this machine's two
+/// cores (the split reference's 2.2 * 10^9 take 14 minutes), and few enough chunks that their
+/// schedule fits in memory (2^64 paths tried to allocate 6.7 PB for it). `--time-budget`
+/// stops a run earlier.
+pub const MAX_PATHS: u64 = 100_000_000_000;
+
 /// Settings of the light tracer.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LightTraceOptions {

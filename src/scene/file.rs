@@ -108,6 +108,11 @@ enum ShapeDesc {
 /// Largest image side accepted, to catch typos before allocating a huge film.
 pub const MAX_IMAGE_SIDE: u32 = 32768;
 
+/// Most pixels accepted: 2^27 (16384 x 8192, four times 8K UHD). A progressive render keeps
+/// about 50 bytes a pixel in its running sums and film, so this is about 7 GB; 32768 x 32768
+/// asked for 51 GB at once and the allocation aborted the process.
+pub const MAX_PIXELS: u64 = 1 << 27;
+
 /// Reads and checks the scene file at `path`; mesh paths are relative to its folder.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let err = |message: String| SceneError {
@@ -243,6 +248,14 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 "camera.{name}: must be in 1..={MAX_IMAGE_SIDE}, got {side}"
             ));
         }
+    }
+    let pixels = u64::from(c.width) * u64::from(c.height);
+    if pixels > MAX_PIXELS {
+        return Err(format!(
+            "camera: width x height must be at most {MAX_PIXELS} pixels (about 50 bytes each \
+             in memory), got {} x {} = {pixels}",
+            c.width, c.height
+        ));
     }
     let eye = point("camera.eye", c.eye)?;
     let look_at = vec3("camera.look_at", c.look_at)?;
