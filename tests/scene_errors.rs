@@ -419,3 +419,59 @@ fn light_path_counts_past_the_cap_are_refused_at_once() {
     }
     assert!(!out.exists());
 }
+
+/// Photon counts past 32-bit indices are refused by the option parser; a count whose maps may
+/// not fit in memory is warned about before tracing starts (a run asked for 4 * 10^9 grew by
+/// 11 MB/s for minutes without a word).
+#[test]
+fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
+    use std::io::{BufRead, BufReader};
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, format!("{CAMERA}{REST}")).unwrap();
+    let out = dir.path().join("maps.bin");
+    for flag in ["--photons", "--caustic-photons"] {
+        let run = Command::new(exe)
+            .arg("photons")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .args([flag, "4294967296"])
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        assert_eq!(run.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.starts_with(&format!(
+                "error: invalid value '4294967296' for '{flag} <N>': must be at most 2147483648 \
+                 (photon indices are 32-bit), got 4294967296"
+            )),
+            "{stderr}"
+        );
+    }
+    // 2 * 10^9 photons: over a terabyte at 700 bytes each, beyond any machine this runs on.
+    // The warning comes before the tracing; the run is stopped there.
+    let mut child = Command::new(exe)
+        .arg("photons")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .args(["--caustic-photons", "2000000000", "--photons", "0", "-q"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    BufReader::new(child.stderr.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let expected = format!(
+        "photondiff: warning: {}: 2000000000 photons may need up to 1400.0 GB while their maps \
+         are built (about 700 bytes a photon); this machine has ",
+        scene.display()
+    );
+    assert!(line.starts_with(&expected), "{line}");
+    assert!(!out.exists());
+}

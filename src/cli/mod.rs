@@ -26,6 +26,49 @@ pub fn check_threads(threads: usize) -> Result<usize, String> {
     Ok(threads)
 }
 
+/// The most photons one map takes: photon indices are 32-bit.
+pub const MAX_PHOTONS: usize = 1 << 31;
+
+/// Parses a photon count (`--photons`, `--caustic-photons`): a whole number up to
+/// [`MAX_PHOTONS`].
+pub fn photon_count(text: &str) -> Result<usize, String> {
+    let n: usize = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("not a whole number of photons: {text}"))?;
+    if n > MAX_PHOTONS {
+        return Err(format!(
+            "must be at most {MAX_PHOTONS} (photon indices are 32-bit), got {n}"
+        ));
+    }
+    Ok(n)
+}
+
+/// Resident bytes a stored photon takes at the peak of its map's build (the photon, its
+/// footprint box, the tree, the copies of the reorder): measured, `photondiff photons` of 20,000
+/// against 2,000,000 caustic photons, 53 MB against 1.42 GB.
+pub const PEAK_BYTES_PER_PHOTON: u64 = 700;
+
+/// Warns, before the photons are traced, when maps of `photons` stored photons may not fit in
+/// this machine's memory (a run asked for 4 * 10^9 grew by 11 MB/s for minutes without a
+/// word). A warning, not an error: an open scene stores far fewer global photons than asked.
+pub fn warn_photon_memory(scene: &Path, photons: usize) {
+    let need = photons as u64 * PEAK_BYTES_PER_PHOTON;
+    if let Some(total) = photondiff::util::memory::total_bytes() {
+        if need > total / 2 {
+            let gb = |b: u64| b as f64 / 1e9;
+            eprintln!(
+                "photondiff: warning: {}: {photons} photons may need up to {:.1} GB while their \
+                 maps are built (about {PEAK_BYTES_PER_PHOTON} bytes a photon); this machine has \
+                 {:.1} GB",
+                scene.display(),
+                gb(need),
+                gb(total)
+            );
+        }
+    }
+}
+
 /// Creates the folder that will hold `path`, if it has one.
 pub fn create_parent(path: &Path) -> Result<(), String> {
     match path.parent() {

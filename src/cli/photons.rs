@@ -20,12 +20,12 @@ pub struct PhotonsArgs {
     output: PathBuf,
     /// Photons stored in the global map (as `render --photons`; the default is the default
     /// render's, 50,000: maps for the thesis's estimators take `--photons 100000`).
-    #[arg(long = "photons", value_name = "N")]
+    #[arg(long = "photons", value_name = "N", value_parser = super::photon_count)]
     global_photons: Option<usize>,
     /// Photons stored in the caustic map (as `render --caustic-photons`; the default is the
     /// default render's, 60,000: maps for `--estimator pd` and the thesis's other estimators
     /// at their default take `--caustic-photons 20000`).
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::photon_count)]
     caustic_photons: Option<usize>,
     /// Photon footprint size (as `render --overlap`).
     #[arg(long, value_name = "X", default_value_t = 32.0)]
@@ -87,6 +87,10 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         probe_walls: args.probe_walls,
         ..PhotonOptions::default()
     };
+    super::warn_photon_memory(
+        &args.scene,
+        options.global_photons + options.caustic_photons,
+    );
     let mut stats = Stats::default();
     let progress = !args.quiet;
     let maps = trace_photon_maps(

@@ -85,11 +85,11 @@ pub struct RenderArgs {
     /// emissions per photon asked for, and the statistics say if fewer were stored (a warning
     /// too when N is given here; a default count is an "up to" count). Default 50,000 for
     /// `integrated` (the default estimator), 100,000 (the thesis's count) for the others.
-    #[arg(long = "photons", value_name = "N")]
+    #[arg(long = "photons", value_name = "N", value_parser = super::photon_count)]
     global_photons: Option<usize>,
     /// Photons stored in the caustic map (of each pass). Default 60,000 for `integrated` (the
     /// default estimator) and 20,000 (the thesis's count) for the others.
-    #[arg(long, value_name = "N")]
+    #[arg(long, value_name = "N", value_parser = super::photon_count)]
     caustic_photons: Option<usize>,
     /// Final gathering: indirect diffuse light at the first diffuse hit of each camera path
     /// from N stratified cosine-distributed gather rays, which pass through mirrors and glass
@@ -331,6 +331,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         radiance_map: args.gather_rays > 0,
         ..PhotonOptions::default()
     };
+    if !matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace) {
+        super::warn_photon_memory(
+            &args.scene,
+            photon_options.global_photons + photon_options.caustic_photons,
+        );
+    }
     if args.gather_rays > 0 {
         if matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace) {
             return Err(format!(

@@ -10,6 +10,15 @@ pub fn status_bytes(field: &str) -> Option<u64> {
         .map(|kb| kb * 1024)
 }
 
+/// The machine's memory (`MemTotal` of `/proc/meminfo`), `None` where unknown.
+pub fn total_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    text.lines()
+        .find_map(|l| l.strip_prefix("MemTotal:"))
+        .and_then(|v| v.trim().strip_suffix("kB")?.trim().parse::<u64>().ok())
+        .map(|kb| kb * 1024)
+}
+
 /// The most resident memory the process has held so far (`VmHWM`), 0 where unknown.
 pub fn peak_resident_bytes() -> u64 {
     status_bytes("VmHWM").unwrap_or(0)
@@ -23,6 +32,12 @@ pub fn resident_bytes() -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_machine_has_more_memory_than_the_process_holds() {
+        let total = total_bytes().expect("Linux");
+        assert!(total > resident_bytes() && total > 1 << 28, "{total}");
+    }
 
     #[test]
     fn peak_is_at_least_what_is_resident_and_grows_with_a_touched_allocation() {
