@@ -475,3 +475,34 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
     assert!(line.starts_with(&expected), "{line}");
     assert!(!out.exists());
 }
+
+/// A scene that renders black says so (it used to exit 0 in silence).
+#[test]
+fn a_scene_without_lights_renders_with_a_warning() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let unlit = format!("{CAMERA}{REST}").replace("[[lights]]", "[[unused]]");
+    let unlit = unlit.split("[[unused]]").next().unwrap().to_string();
+    std::fs::write(
+        &scene,
+        format!("{unlit}[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\"\n"),
+    )
+    .unwrap();
+    let run = Command::new(exe)
+        .arg("render")
+        .arg(&scene)
+        .arg("-o")
+        .arg(dir.path().join("x.exr"))
+        .args(["--estimator", "direct", "-q"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(0));
+    assert_eq!(
+        String::from_utf8_lossy(&run.stderr),
+        format!(
+            "photondiff: warning: {}: the scene has no lights: the image will be black\n",
+            scene.display()
+        )
+    );
+}

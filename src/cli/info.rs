@@ -22,6 +22,7 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
     let mut out = String::new();
     if is_scene {
         let scene = load_scene(&args.file).map_err(|e| e.to_string())?;
+        super::warn_about_scene(&args.file, &scene);
         let c = &scene.camera;
         out += &format!(
             "{}: scene, {} x {} pixels, {} light{}, {} mesh{}\n",

@@ -69,6 +69,14 @@ pub fn warn_photon_memory(scene: &Path, photons: usize) {
     }
 }
 
+/// Prints what in the scene at `path` will make its image black or wrong without an error
+/// (`photondiff::scene::warnings`), one warning a line.
+pub fn warn_about_scene(path: &Path, scene: &photondiff::scene::Scene) {
+    for w in photondiff::scene::warnings::warnings(scene) {
+        eprintln!("photondiff: warning: {}: {w}", path.display());
+    }
+}
+
 /// Creates the folder that will hold `path`, if it has one.
 pub fn create_parent(path: &Path) -> Result<(), String> {
     match path.parent() {

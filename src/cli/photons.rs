@@ -69,6 +69,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         ));
     }
     let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;
+    super::warn_about_scene(&args.scene, &scene);
     let hash = scene_hash(&args.scene)?;
     let device = Device::new().map_err(|e| e.to_string())?;
     let embree = scene

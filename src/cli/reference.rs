@@ -155,6 +155,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         }
     };
     let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;
+    super::warn_about_scene(&args.scene, &scene);
     let device = Device::new().map_err(|e| e.to_string())?;
     let embree = scene
         .build_embree(&device)

@@ -268,6 +268,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let scene = stats
         .time("load scene", || load_scene(&args.scene))
         .map_err(|e| e.to_string())?;
+    super::warn_about_scene(&args.scene, &scene);
     let hash = scene_hash(&args.scene)?;
     let (width, height) = (scene.camera.width, scene.camera.height);
     // Parsed here rather than by clap, so that a bad split is a one-line error with status 1.

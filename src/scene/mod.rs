@@ -8,6 +8,7 @@ pub mod hash;
 mod instances;
 pub mod mesh_file;
 pub mod shapes;
+pub mod warnings;
 
 use crate::embree::{self, BvhSettings, Device, EmbreeError, TriangleMesh};
 use camera::Camera;

@@ -1,0 +1,120 @@
+//! What in a valid scene will make its image black or wrong without any error: no light, no
+//! surface, or an object so small next to the whole scene that the ray offsets step over it.
+//! The command line prints these as warnings; the scene still renders.
+
+use super::{Light, Material, Scene};
+
+/// A scene's extent over its smallest object's size beyond which that object is warned about:
+/// secondary rays start [`Scene::ray_epsilon`] (2e-5 of the extent) off a surface, so an object
+/// 50 offsets across is 1/1000 of the scene. A glass sphere 1/30,000 of its scene's floor lost
+/// its shadow and caustic; at 1/3,000 it rendered right.
+pub const MAX_EXTENT_OVER_OBJECT: f64 = 1000.0;
+
+/// The warnings for `scene`, each one line (without the file name).
+pub fn warnings(scene: &Scene) -> Vec<String> {
+    let mut out = Vec::new();
+    if scene.lights.is_empty() {
+        out.push("the scene has no lights: the image will be black".to_string());
+    } else if scene.lights.iter().all(|l| strength(l) <= 0.0) {
+        out.push("every light's intensity or radiance is zero: the image will be black".into());
+    }
+    let surfaces = scene
+        .meshes
+        .iter()
+        .filter(|m| !matches!(m.material, Material::Emitter { .. }))
+        .count();
+    if surfaces == 0 {
+        out.push(
+            "the scene has no shapes: light falls on nothing and the image will be black".into(),
+        );
+    }
+    let extent = scene.extent();
+    for (mesh, [lo, hi]) in scene.meshes.iter().zip(scene.mesh_bounds()) {
+        let size = (hi - lo).length();
+        if size > 0.0 && extent / size > MAX_EXTENT_OVER_OBJECT {
+            out.push(format!(
+                "{} is {size:.3e} across, 1/{:.0} of the scene's extent ({extent:.3e}): rays \
+                 leave surfaces {:.3e} off them, and may step over it (its shadow and the \
+                 light through it may be wrong); keep the scene within {MAX_EXTENT_OVER_OBJECT} \
+                 times its smallest object",
+                mesh.name,
+                extent / size,
+                scene.ray_epsilon()
+            ));
+        }
+    }
+    out
+}
+
+/// The largest channel of a light's intensity or radiance.
+fn strength(light: &Light) -> f64 {
+    match light {
+        Light::Point { intensity, .. } | Light::Spot { intensity, .. } => intensity.max_element(),
+        Light::Quad { radiance, .. } => radiance.max_element(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::file::parse_scene;
+    use std::path::Path;
+
+    const CAMERA: &str = "[camera]\neye = [0.0, 2.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\n\
+        up = [0.0, 1.0, 0.0]\nfov_y = 40.0\nwidth = 8\nheight = 6\n\
+        [materials.white]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n";
+    const LIGHT: &str = "[[lights]]\ntype = \"point\"\nposition = [0.0, 4.0, 0.0]\n\
+        intensity = [10.0, 10.0, 10.0]\n";
+
+    fn floor(half: f64) -> String {
+        format!(
+            "[[shapes]]\ntype = \"quad\"\ncorner = [{}, 0.0, {half}]\nedge_u = [{}, 0.0, 0.0]\n\
+             edge_v = [0.0, 0.0, {}]\nmaterial = \"white\"\n",
+            -half,
+            2.0 * half,
+            -2.0 * half
+        )
+    }
+
+    const BALL: &str = "[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\n\
+        material = \"white\"\nsegments = 16\n";
+
+    fn warnings_of(text: &str) -> Vec<String> {
+        warnings(&parse_scene(text, Path::new(".")).unwrap())
+    }
+
+    #[test]
+    fn a_lit_scene_of_reasonable_scale_has_none() {
+        assert!(warnings_of(&format!("{CAMERA}{LIGHT}{}{BALL}", floor(6.0))).is_empty());
+    }
+
+    #[test]
+    fn no_light_zero_light_and_no_shape_are_named() {
+        assert_eq!(
+            warnings_of(&format!("{CAMERA}{}", floor(6.0))),
+            ["the scene has no lights: the image will be black"]
+        );
+        let dark = LIGHT.replace("[10.0, 10.0, 10.0]", "[0.0, 0.0, 0.0]");
+        assert_eq!(
+            warnings_of(&format!("{CAMERA}{dark}{}", floor(6.0))),
+            ["every light's intensity or radiance is zero: the image will be black"]
+        );
+        assert_eq!(
+            warnings_of(&format!("{CAMERA}{LIGHT}")),
+            ["the scene has no shapes: light falls on nothing and the image will be black"]
+        );
+    }
+
+    #[test]
+    fn an_object_lost_in_a_huge_scene_is_named() {
+        // A floor 10^5 across under a ball 3.5 across: the ball's shadow vanished.
+        let w = warnings_of(&format!("{CAMERA}{LIGHT}{}{BALL}", floor(5e4)));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with("shapes[1] (sphere) is 3.464e0 across, 1/40825 of the scene's extent"),
+            "{w:?}"
+        );
+        // 10^3 across: within the bound.
+        assert!(warnings_of(&format!("{CAMERA}{LIGHT}{}{BALL}", floor(500.0))).is_empty());
+    }
+}
