@@ -217,6 +217,22 @@ fn bad_gather_settings_are_clear_errors() {
         "photondiff: error: --gather-rays cannot read --photon-maps: final gathering traces its \
          own radiance map"
     );
+    // Estimators without photon maps refuse a maps file (they ignored it without a word).
+    for estimator in ["direct", "lighttrace"] {
+        let (ok, stderr, _) = render(
+            dir.path(),
+            &scene,
+            &["--estimator", estimator, "--photon-maps", "maps.pm"],
+        );
+        assert!(!ok);
+        assert_eq!(
+            stderr.trim(),
+            format!(
+                "photondiff: error: --photon-maps does not apply to --estimator {estimator} (it \
+                 uses no photon maps)"
+            )
+        );
+    }
 }
 
 /// The canonical scene at 160 x 120.

@@ -366,4 +366,26 @@ fn the_command_line_warns_once_counts_repairs_and_info_describes_files() {
         .unwrap();
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("photondiff: error: "));
+    // A missing file, a folder and another kind of file are named as such (all three said
+    // "unsupported mesh format").
+    let cases = [
+        (
+            dir.path().join("none.ply"),
+            "cannot read: No such file or directory (os error 2)",
+        ),
+        (dir.path().to_path_buf(), "is a folder"),
+        (
+            dir.path().join("quad.obj.txt"),
+            "expected a scene (.toml) or a mesh (.obj, .ply) file",
+        ),
+    ];
+    std::fs::write(dir.path().join("quad.obj.txt"), "v 0 0 0\n").unwrap();
+    for (path, message) in cases {
+        let out = Command::new(exe).arg("info").arg(&path).output().unwrap();
+        assert_eq!(out.status.code(), Some(1));
+        assert_eq!(
+            String::from_utf8_lossy(&out.stderr),
+            format!("photondiff: error: {}: {message}\n", path.display())
+        );
+    }
 }

@@ -506,3 +506,54 @@ fn a_scene_without_lights_renders_with_a_warning() {
         )
     );
 }
+
+/// Messages that named the wrong reason or said too little.
+#[test]
+fn messages_give_the_right_reason_and_the_value() {
+    let base = format!("{CAMERA}{REST}");
+    // Huge and tiny directions are directions (they were "zero or parallel").
+    for up in ["[0.0, 1e300, 0.0]", "[0.0, 1e-300, 0.0]"] {
+        let text = base.replace("up = [0.0, 1.0, 0.0]", &format!("up = {up}"));
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scene.toml");
+        std::fs::write(&path, &text).unwrap();
+        assert!(load_scene(&path).is_ok(), "{up}");
+    }
+    let spot = base.replace(
+        "type = \"point\"\nposition = [0.0, 4.0, 0.0]",
+        "type = \"spot\"\nposition = [0.0, 4.0, 0.0]\ndirection = [1e300, -1e300, 0.0]\ncone_angle = 30.0",
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("spot.toml"), &spot).unwrap();
+    assert!(load_scene(&dir.path().join("spot.toml")).is_ok());
+    assert_eq!(
+        error_of(
+            &base.replace("albedo = [0.5, 0.5, 0.5]", "albedo = [1.5, 0.5, 0.5]"),
+            &[]
+        ),
+        "materials.white.albedo: components must be <= 1, got [1.5, 0.5, 0.5]"
+    );
+    let e = error_of(
+        &format!("{base}[meshes.m]\nfile = \"m.obj\"\n[[instances]]\nmesh = \"m\"\nmaterial = \"white\"\nscale = [1.0, 1.0]\n"),
+        &[],
+    );
+    assert!(e.ends_with("a number or three numbers [sx, sy, sz]"), "{e}");
+}
+
+/// A degenerate quad light is refused with its name once and its vertices as stored (the
+/// message said "invalid mesh" twice and printed f32 vertices with f64's digits).
+#[test]
+fn a_degenerate_light_is_named_once() {
+    let light = "[[lights]]\ntype = \"quad\"\ncorner = [-0.3, 1.99, 0.0]\nedge_u = [1e-12, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.6]\nradiance = [1.0, 1.0, 1.0]\n";
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, format!("{CAMERA}{light}")).unwrap();
+    let scene = load_scene(&path).unwrap();
+    let device = photondiff::embree::Device::new().unwrap();
+    let e = scene.build_embree(&device).err().unwrap().to_string();
+    assert_eq!(
+        e,
+        "invalid mesh: lights[0] (quad light): triangle 0 is degenerate (zero area): \
+         [-0.3, 1.99, 0.0] [-0.3, 1.99, 0.0] [-0.3, 1.99, 0.6]"
+    );
+}

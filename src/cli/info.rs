@@ -15,10 +15,22 @@ pub struct InfoArgs {
 
 /// Runs `photondiff info`.
 pub fn run(args: &InfoArgs) -> Result<(), String> {
-    let is_scene = args
+    let ext = args
         .file
         .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+        .map(|e| e.to_string_lossy().to_ascii_lowercase());
+    let name = args.file.display();
+    match std::fs::metadata(&args.file) {
+        Err(e) => return Err(format!("{name}: cannot read: {e}")),
+        Ok(m) if m.is_dir() => return Err(format!("{name}: is a folder")),
+        Ok(_) => {}
+    }
+    if !matches!(ext.as_deref(), Some("toml" | "obj" | "ply")) {
+        return Err(format!(
+            "{name}: expected a scene (.toml) or a mesh (.obj, .ply) file"
+        ));
+    }
+    let is_scene = ext.as_deref() == Some("toml");
     let mut out = String::new();
     if is_scene {
         let scene = load_scene(&args.file).map_err(|e| e.to_string())?;

@@ -356,6 +356,19 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             );
         }
     }
+    if args.photon_maps.is_some()
+        && matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace)
+    {
+        // It was read by neither, without a word.
+        return Err(format!(
+            "--photon-maps does not apply to --estimator {} (it uses no photon maps)",
+            if kind == EstimatorKind::Direct {
+                "direct"
+            } else {
+                "lighttrace"
+            }
+        ));
+    }
     if !(args.overlap.is_finite() && args.overlap > 0.0) {
         return Err(format!(
             "--overlap must be a positive number, got {}",

@@ -85,9 +85,10 @@ impl TriangleMesh {
             if area2.is_nan() || area2 <= 1e-12 * scale * scale {
                 return Err(format!(
                     "triangle {i} is degenerate (zero area): {:?} {:?} {:?}",
-                    a.to_array(),
-                    b.to_array(),
-                    c.to_array()
+                    // As stored (single precision), without the digits of widening them.
+                    self.positions[tri[0] as usize],
+                    self.positions[tri[1] as usize],
+                    self.positions[tri[2] as usize]
                 ));
             }
         }

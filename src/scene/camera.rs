@@ -35,6 +35,9 @@ impl Camera {
         height: u32,
     ) -> Option<Self> {
         let forward = (look_at - eye).try_normalize()?;
+        // Scaled to its largest component first: `up = [0, 1e300, 0]` (or 1e-300) is a fine
+        // direction whose cross product with `forward` over- or underflows.
+        let up = up / up.abs().max_element();
         let right = forward.cross(up).try_normalize()?;
         if forward.cross(up).length() < 1e-9 * up.length() {
             return None;

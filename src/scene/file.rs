@@ -273,14 +273,20 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
             MaterialDesc::Diffuse { albedo } => {
                 let albedo = non_negative(&format!("{field}.albedo"), albedo)?;
                 if albedo.max_element() > 1.0 {
-                    return Err(format!("{field}.albedo: components must be <= 1"));
+                    return Err(format!(
+                        "{field}.albedo: components must be <= 1, got {:?}",
+                        albedo.to_array()
+                    ));
                 }
                 Material::Diffuse { albedo }
             }
             MaterialDesc::Mirror { reflectance } => {
                 let reflectance = non_negative(&format!("{field}.reflectance"), reflectance)?;
                 if reflectance.max_element() > 1.0 {
-                    return Err(format!("{field}.reflectance: components must be <= 1"));
+                    return Err(format!(
+                        "{field}.reflectance: components must be <= 1, got {:?}",
+                        reflectance.to_array()
+                    ));
                 }
                 Material::Mirror { reflectance }
             }
@@ -427,7 +433,9 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 cone_angle,
                 falloff_start,
             } => {
-                let direction = vec3(&format!("{field}.direction"), direction)?
+                let direction = vec3(&format!("{field}.direction"), direction)?;
+                // Scaled first, as the camera's up: [1e300, -1e300, 0] is a direction.
+                let direction = (direction / direction.abs().max_element())
                     .try_normalize()
                     .ok_or(format!("{field}.direction: must not be zero"))?;
                 let cone = number(&format!("{field}.cone_angle"), cone_angle)?;

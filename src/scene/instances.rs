@@ -13,7 +13,7 @@ pub const MAX_SCALE: f64 = 1e6;
 
 /// `scale = 2.0` (uniform) or `scale = [sx, sy, sz]` (per axis).
 #[derive(Deserialize, Debug, Clone, Copy)]
-#[serde(untagged)]
+#[serde(untagged, expecting = "a number or three numbers [sx, sy, sz]")]
 pub(super) enum Scale {
     Uniform(f64),
     Axes([f64; 3]),

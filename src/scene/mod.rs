@@ -185,7 +185,13 @@ impl Scene {
                 None => builder.add_mesh(mesh.mesh.clone()),
                 Some(to_world) => builder.add_instance(&mesh.mesh, to_world),
             }
-            .map_err(|e| EmbreeError::InvalidMesh(format!("{}: {e}", mesh.name)))?;
+            .map_err(|e| match e {
+                // Named once: the inner message already says "invalid mesh".
+                EmbreeError::InvalidMesh(m) => {
+                    EmbreeError::InvalidMesh(format!("{}: {m}", mesh.name))
+                }
+                other => other,
+            })?;
         }
         builder.commit()
     }
