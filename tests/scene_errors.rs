@@ -429,7 +429,11 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
     let exe = env!("CARGO_BIN_EXE_photondiff");
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, format!("{CAMERA}{REST}")).unwrap();
+    std::fs::write(
+        &scene,
+        with_shape("type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\""),
+    )
+    .unwrap();
     let out = dir.path().join("maps.bin");
     for flag in ["--photons", "--caustic-photons"] {
         let run = Command::new(exe)

@@ -127,7 +127,27 @@ pub fn check_outputs(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Res
         if here.is_dir() {
             return Err(format!("{flag}: {} is a folder", path.display()));
         }
+        probe_writable(path).map_err(|e| format!("{flag}: {e}"))?;
     }
+    Ok(())
+}
+
+/// Makes sure `path` can be written before the work that writes it (a render writing to
+/// `/proc` failed only after it was done): creates its folder and a scratch file beside it
+/// (removed at once). A device or pipe that exists (`/dev/null`) is written in place and
+/// needs no probe.
+fn probe_writable(path: &Path) -> Result<(), String> {
+    if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+        return Ok(());
+    }
+    create_parent(path)?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let probe = path.with_file_name(format!(".{name}.{}.probe", std::process::id()));
+    std::fs::File::create(&probe).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    let _ = std::fs::remove_file(&probe);
     Ok(())
 }
 
@@ -167,5 +187,14 @@ mod tests {
             check_outputs(&[("-o", dir.path())], &[]),
             Err(format!("-o: {} is a folder", dir.path().display()))
         );
+        // Unwritable before any work (it failed after the render); no scratch file is left.
+        let proc_file = Path::new("/proc/x.exr");
+        let e = check_outputs(&[("-o", proc_file)], &[]).unwrap_err();
+        assert!(e.starts_with("-o: /proc/x.exr: cannot write: "), "{e}");
+        assert_eq!(
+            check_outputs(&[("-o", Path::new("/dev/null"))], &[]),
+            Ok(())
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
     }
 }

@@ -100,6 +100,14 @@ fn gaps(mut ranges: Vec<Range<u64>>, total: u64) -> Vec<Range<u64>> {
     out
 }
 
+/// The attributes compared first, in this order, when parts differ.
+const LEADING: [&str; 4] = [
+    "photondiff/scene_hash",
+    "photondiff/estimator",
+    "photondiff/passes",
+    "photondiff/seed",
+];
+
 /// Merges `parts` (see the module documentation).
 pub fn merge(parts: &[Part]) -> Result<Merged, String> {
     let first = parts.first().ok_or("no parts to merge")?;
@@ -124,6 +132,12 @@ pub fn merge(parts: &[Part]) -> Result<Merged, String> {
             ));
         }
         let keys: BTreeSet<&String> = first.metadata.keys().chain(part.metadata.keys()).collect();
+        // The settings a user sets first, then the rest: a part of another pass count also
+        // differs in what that count decides (the edge grid of a long run), and naming that
+        // instead hid the real difference.
+        let rank = |k: &&String| LEADING.iter().position(|l| l == k).unwrap_or(LEADING.len());
+        let mut keys: Vec<&String> = keys.into_iter().collect();
+        keys.sort_by_key(rank);
         for key in keys {
             if PER_PART.contains(&key.as_str()) || !key.starts_with("photondiff/") {
                 continue;
@@ -335,5 +349,40 @@ fn add(a: &mut Value, b: &Value, key: &str) {
             }
         }
         _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(name: &str, settings: &[(&str, &str)]) -> Part {
+        Part {
+            path: name.into(),
+            film: Film::new(2, 2),
+            window: Window::full(2, 2),
+            display: (2, 2),
+            metadata: settings
+                .iter()
+                .map(|(k, v)| (format!("photondiff/{k}"), v.to_string()))
+                .collect(),
+        }
+    }
+
+    #[test]
+    fn parts_of_other_pass_counts_are_told_apart_by_the_pass_count() {
+        // A 3-pass render's part also has the edge grid of a long run (8), which sorts first.
+        let a = part(
+            "a.exr",
+            &[("scene_hash", "1"), ("passes", "2"), ("edge_grid", "1")],
+        );
+        let b = part(
+            "b.exr",
+            &[("scene_hash", "1"), ("passes", "3"), ("edge_grid", "8")],
+        );
+        assert_eq!(
+            merge(&[a, b]).err().unwrap(),
+            "b.exr has other settings than a.exr: photondiff/passes is 2 there, 3 here"
+        );
     }
 }
