@@ -99,10 +99,45 @@ prop_compose! {
     }
 }
 
+prop_compose! {
+    /// Two placements of one small glass mesh (a tetrahedron, `ball.obj`), with hostile
+    /// transforms: a scale of 1e-30 made Embree abort on the rays mapped into the instance.
+    fn instances()(
+        t in vec3(), r in vec3(),
+        scale in prop_oneof![
+            3 => num(0.1, 3.0),
+            1 => num(-3.0, -0.1),
+            1 => (num(-3.0, 3.0), num(-3.0, 3.0), num(-3.0, 3.0)).prop_map(|(a, b, c)| format!("[{a}, {b}, {c}]")),
+            1 => prop_oneof![Just("1e-30"), Just("1e-20"), Just("[1.0, 1e-30, 1.0]"), Just("1e17")].prop_map(String::from),
+        ],
+    ) -> String {
+        format!(
+            "[meshes.ball]\nfile = \"ball.obj\"\n\
+             [[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\ntranslate = {t}\nrotate = {r}\nscale = {scale}\n\
+             [[instances]]\nmesh = \"ball\"\nmaterial = \"white\"\n"
+        )
+    }
+}
+
+/// A folder holding `ball.obj`, the instanced mesh of [`instances`].
+fn mesh_folder() -> &'static Path {
+    static DIR: std::sync::OnceLock<tempfile::TempDir> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(
+            dir.path().join("ball.obj"),
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n",
+        )
+        .unwrap();
+        dir
+    })
+    .path()
+}
+
 /// Loads, builds and renders `text` at its (tiny) size with photon maps, and tells whether it
 /// rendered; panics only on a bug. `FUZZ_DEBUG=1` prints the first line of each load error.
 fn load_and_render(text: &str) -> bool {
-    let scene = match parse_scene(text, Path::new(".")) {
+    let scene = match parse_scene(text, mesh_folder()) {
         Ok(scene) => scene,
         Err(e) => {
             if std::env::var_os("FUZZ_DEBUG").is_some() {
@@ -175,6 +210,11 @@ proptest! {
     #[test]
     fn random_structured_scenes_give_an_image_or_an_error(text in scene_text()) {
         let _ = load_and_render(&text);
+    }
+
+    #[test]
+    fn random_instances_give_an_image_or_an_error(scene in scene_text(), placed in instances()) {
+        let _ = load_and_render(&format!("{scene}{placed}"));
     }
 
     #[test]

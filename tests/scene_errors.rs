@@ -431,7 +431,9 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
     let scene = dir.path().join("scene.toml");
     std::fs::write(
         &scene,
-        with_shape("type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\""),
+        with_shape(
+            "type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\"",
+        ),
     )
     .unwrap();
     let out = dir.path().join("maps.bin");
