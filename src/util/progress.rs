@@ -31,10 +31,12 @@ pub fn bar(visible: bool, total: u64, stage: &str) -> ProgressBar {
     } else {
         let lines = Lines::new(Box::new(std::io::stderr()), LOG_INTERVAL);
         let lines = ProgressDrawTarget::term_like_with_hz(Box::new(lines), 1);
-        (
-            ProgressBar::with_draw_target(Some(total), lines),
-            "{prefix} {percent:>3}% {elapsed_precise} eta {eta}",
-        )
+        let bar = ProgressBar::with_draw_target(Some(total), lines);
+        // Redrawn every second whether or not the stage moves, so that a stage that stores
+        // nothing for minutes (global photons of an open scene) still writes its line every
+        // interval: 400 million asked wrote nothing for 40 s.
+        bar.enable_steady_tick(Duration::from_secs(1));
+        (bar, "{prefix} {percent:>3}% {elapsed_precise} eta {eta}")
     };
     if let Ok(style) = ProgressStyle::with_template(template) {
         bar.set_style(style.progress_chars("=> "));
@@ -194,5 +196,21 @@ mod tests {
         bar.set_position(150);
         bar.finish_and_clear();
         assert!(quiet.0.lock().unwrap().is_empty());
+    }
+
+    #[test]
+    fn a_stage_that_does_not_move_still_writes_its_lines() {
+        let sink = Shared::default();
+        let bar = logged(&sink, Duration::from_millis(40));
+        bar.set_position(10);
+        // As `bar` ticks without a terminal (there every second): no step is taken here.
+        bar.enable_steady_tick(Duration::from_millis(10));
+        std::thread::sleep(Duration::from_millis(300));
+        bar.finish_and_clear();
+        let text = String::from_utf8(sink.0.lock().unwrap().clone()).unwrap();
+        assert!(
+            text.lines().filter(|l| *l == "light   5% 10").count() >= 2,
+            "{text}"
+        );
     }
 }
