@@ -360,3 +360,42 @@ fn mismatches_are_one_line_errors() {
         "photondiff: error: relRMSE over image is undefined (the reference's mean is 0) and cannot be checked against --max-relrmse 1\n"
     );
 }
+
+/// `report` refuses what `compare` refuses (a NaN pixel made a NaN table), and an exposure
+/// that is not a number of stops (the page said "radiance x 2^NaN").
+#[test]
+fn report_refuses_non_finite_images_and_exposures() {
+    let d = tempfile::tempdir().unwrap();
+    let rgb = |v: [f64; 4]| [("R", v.to_vec()), ("G", v.to_vec()), ("B", v.to_vec())];
+    let r = write(d.path(), "ref.exr", 2, 2, &rgb([1.0; 4]));
+    let nan = write(d.path(), "nan.exr", 2, 2, &rgb([1.0, 1.0, f64::NAN, 1.0]));
+    let out = d.path().join("report");
+    let report = |extra: &[&str], render: &Path| {
+        std::process::Command::new(bin())
+            .arg("report")
+            .arg("--reference")
+            .arg(&r)
+            .arg(render)
+            .arg("-o")
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    assert_eq!(
+        stderr(&report(&[], &nan)),
+        format!(
+            "photondiff: error: {}: pixel (0, 1) is not finite ([NaN, NaN, NaN])\n",
+            nan.display()
+        )
+    );
+    for (value, shown) in [("nan", "NaN"), ("1e300", "1e300"), ("-65", "-65")] {
+        assert_eq!(
+            stderr(&report(&["--exposure", value], &r)),
+            format!(
+                "photondiff: error: --exposure must be a number of stops in [-64, 64], got {shown}\n"
+            )
+        );
+    }
+    assert!(!out.exists());
+}

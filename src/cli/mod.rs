@@ -77,6 +77,16 @@ pub fn warn_about_scene(path: &Path, scene: &photondiff::scene::Scene) {
     }
 }
 
+/// A number as an error message shows it: as written for everyday sizes, in exponent form for
+/// huge and tiny ones (`1e300` was printed as 301 digits).
+pub fn shown(x: f64) -> String {
+    if x.is_finite() && x != 0.0 && !(1e-6..1e9).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 /// Creates the folder that will hold `path`, if it has one.
 pub fn create_parent(path: &Path) -> Result<(), String> {
     match path.parent() {
@@ -154,6 +164,16 @@ fn probe_writable(path: &Path) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numbers_are_shown_short() {
+        assert_eq!(shown(0.5), "0.5");
+        assert_eq!(shown(-3.0), "-3");
+        assert_eq!(shown(1e300), "1e300");
+        assert_eq!(shown(-2.5e-9), "-2.5e-9");
+        assert_eq!(shown(f64::NAN), "NaN");
+        assert_eq!(shown(0.0), "0");
+    }
 
     #[test]
     fn outputs_on_each_other_or_on_an_input_are_refused() {

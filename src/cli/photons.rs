@@ -59,13 +59,13 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     if !(args.overlap.is_finite() && args.overlap > 0.0) {
         return Err(format!(
             "--overlap must be a positive number, got {}",
-            args.overlap
+            super::shown(args.overlap)
         ));
     }
     if !(0.0..1.0).contains(&args.global_aim) {
         return Err(format!(
             "--global-aim must be at least 0 and less than 1, got {}",
-            args.global_aim
+            super::shown(args.global_aim)
         ));
     }
     let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;

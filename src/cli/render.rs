@@ -372,19 +372,19 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if !(args.overlap.is_finite() && args.overlap > 0.0) {
         return Err(format!(
             "--overlap must be a positive number, got {}",
-            args.overlap
+            super::shown(args.overlap)
         ));
     }
     if !(0.0..=MAX_NEAR_REACH).contains(&args.gather_near) {
         return Err(format!(
             "--gather-near must be at least 0 and at most {MAX_NEAR_REACH}, got {}",
-            args.gather_near
+            super::shown(args.gather_near)
         ));
     }
     if !(0.0..1.0).contains(&photon_options.global_aim) {
         return Err(format!(
             "--global-aim must be at least 0 and less than 1, got {}",
-            photon_options.global_aim
+            super::shown(photon_options.global_aim)
         ));
     }
     let settings = EstimatorSettings {
@@ -647,17 +647,21 @@ fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
     if let Some(x) = args.target_noise {
         if !(x.is_finite() && x > 0.0) {
             return Err(format!(
-                "--target-noise must be a positive relative standard error (e.g. 0.01), got {x}"
+                "--target-noise must be a positive relative standard error (e.g. 0.01), got {}",
+                super::shown(x)
             ));
         }
     }
     if !(args.alpha > 0.0 && args.alpha < 1.0) {
-        return Err(format!("--alpha must be in (0, 1), got {}", args.alpha));
+        return Err(format!(
+            "--alpha must be in (0, 1), got {}",
+            super::shown(args.alpha)
+        ));
     }
     if !(args.global_alpha > 0.0 && args.global_alpha < 1.0) {
         return Err(format!(
             "--global-alpha must be in (0, 1), got {}",
-            args.global_alpha
+            super::shown(args.global_alpha)
         ));
     }
     let kind = estimator_kind(args);

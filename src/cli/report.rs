@@ -56,6 +56,26 @@ pub struct ReportArgs {
     exposure: f64,
 }
 
+/// The largest `--exposure` in stops either way: 2^64 is far past any radiance worth showing.
+const MAX_EXPOSURE: f64 = 64.0;
+
+/// Reads an EXR for the report, refusing a non-finite pixel as `compare` does (the page's
+/// table showed NaN).
+fn read_finite(path: &Path) -> Result<Film, String> {
+    let film = Film::read_exr(path)?;
+    if let Some(i) = film.pixels.iter().position(|p| !p.is_finite()) {
+        let w = film.width as usize;
+        return Err(format!(
+            "{}: pixel ({}, {}) is not finite ({:?})",
+            path.display(),
+            i % w,
+            i / w,
+            film.pixels[i].to_array()
+        ));
+    }
+    Ok(film)
+}
+
 /// `LABEL=FILE` or `FILE` (captioned with its stem). A path that exists is never split.
 fn parse_render(arg: &str) -> (String, PathBuf) {
     if !Path::new(arg).exists() {
@@ -93,11 +113,17 @@ fn scene_regions(path: &Path, reference: &Film) -> Result<Vec<Region>, String> {
 }
 
 pub fn run(args: &ReportArgs) -> Result<(), String> {
-    let reference = Film::read_exr(&args.reference)?;
+    if !(args.exposure.is_finite() && args.exposure.abs() <= MAX_EXPOSURE) {
+        return Err(format!(
+            "--exposure must be a number of stops in [-{MAX_EXPOSURE}, {MAX_EXPOSURE}], got {}",
+            super::shown(args.exposure)
+        ));
+    }
+    let reference = read_finite(&args.reference)?;
     let mut renders = Vec::new();
     for arg in &args.renders {
         let (label, path) = parse_render(arg);
-        let film = Film::read_exr(&path)?;
+        let film = read_finite(&path)?;
         if (film.width, film.height) != (reference.width, reference.height) {
             return Err(format!(
                 "{} is {} x {} pixels but the reference {} is {} x {}",
