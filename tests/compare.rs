@@ -399,3 +399,24 @@ fn report_refuses_non_finite_images_and_exposures() {
     }
     assert!(!out.exists());
 }
+
+/// Two tiles of one size from other places of the image are not compared as the same pixels
+/// (the data window's offset was ignored).
+#[test]
+fn tiles_from_other_places_are_not_compared() {
+    use photondiff::render::film::Film;
+    let d = tempfile::tempdir().unwrap();
+    let film = Film::new(2, 2);
+    let (left, right) = (d.path().join("left.exr"), d.path().join("right.exr"));
+    film.write_exr_window(&left, &[], (0, 0), (4, 2)).unwrap();
+    film.write_exr_window(&right, &[], (2, 0), (4, 2)).unwrap();
+    assert_eq!(
+        stderr(&run(&[&left, &right])),
+        format!(
+            "photondiff: error: {} starts at pixel (0, 0) of its image but {} at (2, 0): not the same pixels\n",
+            left.display(),
+            right.display()
+        )
+    );
+    assert!(run(&[&right, &right]).status.success());
+}

@@ -85,11 +85,30 @@ pub fn run(args: &CompareArgs) -> Result<(), String> {
     let image = ChannelImage::read(&args.image)?;
     let reference = ChannelImage::read(&args.reference)?;
     check_same_shape(&image, &args.image, &reference, &args.reference)?;
+    // Two tiles of one size but from other places are not the same pixels.
+    let (a, b) = (
+        ChannelImage::origin(&args.image)?,
+        ChannelImage::origin(&args.reference)?,
+    );
+    if a != b {
+        return Err(format!(
+            "{} starts at pixel ({}, {}) of its image but {} at ({}, {}): not the same pixels",
+            args.image.display(),
+            a.0,
+            a.1,
+            args.reference.display(),
+            b.0,
+            b.1
+        ));
+    }
     image.check_finite(&args.image)?;
     reference.check_finite(&args.reference)?;
     if let Some(x) = args.max_relrmse {
         if !(x >= 0.0 && x.is_finite()) {
-            return Err(format!("--max-relrmse {x}: must be a finite number >= 0"));
+            return Err(format!(
+                "--max-relrmse {}: must be a finite number >= 0",
+                super::shown(x)
+            ));
         }
     }
     let masks = args

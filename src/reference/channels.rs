@@ -63,6 +63,24 @@ impl ChannelImage {
         })
     }
 
+    /// Where the first layer's pixels lie in its image (the data window's corner): `(0, 0)`
+    /// for a whole image, the tile's corner for a tile of one (`render --tile`).
+    pub fn origin(path: &Path) -> Result<(i32, i32), String> {
+        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| {
+            format!(
+                "{}: cannot read EXR: {}",
+                path.display(),
+                one_line(&e.to_string())
+            )
+        })?;
+        let header = meta
+            .headers
+            .first()
+            .ok_or_else(|| format!("{}: no layer", path.display()))?;
+        let p = header.own_attributes.layer_position;
+        Ok((p.x(), p.y()))
+    }
+
     /// Writes the image as a 32-bit float EXR (tests and masks).
     pub fn write_exr(&self, path: &Path) -> Result<(), String> {
         use exr::prelude::*;
