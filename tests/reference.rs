@@ -249,4 +249,29 @@ fn references_made_in_parts_merge_into_their_mean() {
         ),
         "{err}"
     );
+    // References of another scene (here the light moved) are not this scene's.
+    let other = d.join("other.toml");
+    let text = std::fs::read_to_string(d.join("scene.toml"))
+        .unwrap()
+        .replace(
+            "position = [-4.0, 4.0, -1.0]",
+            "position = [-4.0, 5.0, -1.0]",
+        );
+    std::fs::write(&other, text).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("reference")
+        .arg(&other)
+        .args(["--merge", "part1.exr", "part2.exr", "-o", "x.exr"])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        err.starts_with(
+            "photondiff: error: part1.exr: a reference of another scene (photondiff/scene_hash "
+        ),
+        "{err}"
+    );
+    assert!(!d.join("x.exr").exists());
 }

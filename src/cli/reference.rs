@@ -9,6 +9,7 @@ use photondiff::reference::metrics::Regions;
 use photondiff::render::film::Film;
 use photondiff::render::part::{read_part, Part};
 use photondiff::scene::file::load_scene;
+use photondiff::scene::hash::{hex, scene_hash};
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -76,8 +77,13 @@ fn settings_of(part: &Part) -> Result<(String, u64), String> {
     }
 }
 
-/// Reads the references of `--merge` and checks that they can be averaged.
-fn read_parts(parts: &[PathBuf]) -> Result<(Vec<Reference>, String), String> {
+/// The attribute naming the scene a reference was made of (its [`scene_hash`]).
+const SCENE_KEY: &str = "photondiff/scene_hash";
+
+/// Reads the references of `--merge` and checks that they can be averaged, and that each is
+/// of the scene `hash` names (references written before they carried the scene's hash are
+/// taken as they are).
+fn read_parts(parts: &[PathBuf], hash: &str) -> Result<(Vec<Reference>, String), String> {
     let mut seeds = Vec::new();
     let mut common: Option<String> = None;
     let mut references = Vec::new();
@@ -85,6 +91,12 @@ fn read_parts(parts: &[PathBuf]) -> Result<(Vec<Reference>, String), String> {
         // The image and its settings in one read.
         let part = read_part(path)?;
         let (settings, seed) = settings_of(&part)?;
+        if let Some(other) = part.metadata.get(SCENE_KEY).filter(|h| *h != hash) {
+            return Err(format!(
+                "{}: a reference of another scene ({SCENE_KEY} {other}, this scene's {hash})",
+                path.display()
+            ));
+        }
         if let Some(c) = &common {
             if *c != settings {
                 return Err(format!(
@@ -160,10 +172,11 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     let embree = scene
         .build_embree(&device)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    let hash = hex(scene_hash(&args.scene)?);
     if !args.merge.is_empty() {
-        let (parts, meta) = read_parts(&args.merge)?;
+        let (parts, meta) = read_parts(&args.merge, &hash)?;
         let reference = merge(&parts)?;
-        let meta = vec![(META_KEY.to_string(), meta)];
+        let meta = vec![(META_KEY.to_string(), meta), (SCENE_KEY.to_string(), hash)];
         return write(args, &scene, &embree, &reference, &meta, None);
     }
     if args.light_paths == 0 && args.caustic_paths == 0 {
@@ -188,7 +201,10 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         })
     })?;
     let seconds = start.elapsed().as_secs_f64();
-    let meta = vec![(META_KEY.to_string(), settings.tag())];
+    let meta = vec![
+        (META_KEY.to_string(), settings.tag()),
+        (SCENE_KEY.to_string(), hash),
+    ];
     write(args, &scene, &embree, &reference, &meta, Some(seconds))
 }
 
