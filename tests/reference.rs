@@ -274,4 +274,22 @@ fn references_made_in_parts_merge_into_their_mean() {
         "{err}"
     );
     assert!(!d.join("x.exr").exists());
+    // Nor are its regions measured on another scene by `report`.
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args(["report", "--reference", "part1.exr", "part2.exr", "--scene"])
+        .arg(&other)
+        .args(["-o", "rep"])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert!(
+        err.starts_with(&format!(
+            "photondiff: error: part1.exr: a reference of another scene than {} (",
+            other.display()
+        )),
+        "{err}"
+    );
+    assert!(!d.join("rep").exists());
 }

@@ -93,6 +93,22 @@ fn parse_render(arg: &str) -> (String, PathBuf) {
     (label, path)
 }
 
+/// A reference that names its scene (`photondiff reference` writes `photondiff/scene_hash`)
+/// must be of the scene whose regions are measured; one that does not is taken as it is.
+fn check_reference_scene(reference: &Path, scene: &Path) -> Result<(), String> {
+    let part = photondiff::render::part::read_part(reference)?;
+    let hash = photondiff::scene::hash::hex(photondiff::scene::hash::scene_hash(scene)?);
+    match part.metadata.get("photondiff/scene_hash") {
+        Some(other) if *other != hash => Err(format!(
+            "{}: a reference of another scene than {} (photondiff/scene_hash {other}, the \
+             scene's {hash})",
+            reference.display(),
+            scene.display()
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// The scene's regions of interest for `reference`.
 fn scene_regions(path: &Path, reference: &Film) -> Result<Vec<Region>, String> {
     let scene = load_scene(path).map_err(|e| e.to_string())?;
@@ -138,7 +154,10 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
         renders.push(Render { label, film });
     }
     let mut regions = match &args.scene {
-        Some(scene) => scene_regions(scene, &reference)?,
+        Some(scene) => {
+            check_reference_scene(&args.reference, scene)?;
+            scene_regions(scene, &reference)?
+        }
         None => Vec::new(),
     };
     for path in &args.masks {
