@@ -420,3 +420,34 @@ fn tiles_from_other_places_are_not_compared() {
     );
     assert!(run(&[&right, &right]).status.success());
 }
+
+/// An error map is not written over a folder or over the images compared.
+#[test]
+fn the_error_map_needs_a_file_of_its_own() {
+    let d = tempfile::tempdir().unwrap();
+    let (i, r) = pair(d.path());
+    let out = |map: &Path| {
+        std::process::Command::new(bin())
+            .arg("compare")
+            .arg(&i)
+            .arg(&r)
+            .arg("--error-map")
+            .arg(map)
+            .output()
+            .unwrap()
+    };
+    assert_eq!(
+        stderr(&out(d.path())),
+        format!(
+            "photondiff: error: --error-map: {} is a folder\n",
+            d.path().display()
+        )
+    );
+    assert_eq!(
+        stderr(&out(&r)),
+        format!(
+            "photondiff: error: --error-map names the reference ({}): the run would overwrite it\n",
+            r.display()
+        )
+    );
+}

@@ -82,6 +82,13 @@ fn print_table(args: &CompareArgs, image: &ChannelImage, rows: &[RegionMetrics])
 }
 
 pub fn run(args: &CompareArgs) -> Result<(), String> {
+    if let Some(path) = &args.error_map {
+        let inputs = [
+            ("image", args.image.as_path()),
+            ("reference", &args.reference),
+        ];
+        super::check_outputs(&[("--error-map", path)], &inputs)?;
+    }
     let image = ChannelImage::read(&args.image)?;
     let reference = ChannelImage::read(&args.reference)?;
     check_same_shape(&image, &args.image, &reference, &args.reference)?;
