@@ -293,3 +293,39 @@ fn references_made_in_parts_merge_into_their_mean() {
     );
     assert!(!d.join("rep").exists());
 }
+
+/// A region the scene does not have (no glass: no caustic) is reported as such, not with an
+/// infinite noise.
+#[test]
+fn an_empty_region_has_no_noise_to_tell() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("floor.toml");
+    let text = include_str!("../scenes/caustic-sphere.toml")
+        .replace("width = 640", "width = 32")
+        .replace("height = 480", "height = 24");
+    let floor_only = text.split("[[shapes]]\ntype = \"sphere\"").next().unwrap();
+    std::fs::write(&scene, floor_only).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("reference")
+        .arg(&scene)
+        .args(["--light-paths", "65536", "--caustic-paths", "0"])
+        .args(["--direct-grids", "1,2", "--quiet", "-o", "r.exr"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let caustic = stdout
+        .lines()
+        .find(|l| l.trim_start().starts_with("caustic"))
+        .unwrap();
+    assert_eq!(
+        caustic.split_whitespace().collect::<Vec<_>>(),
+        ["caustic", "0", "px", "n/a", "(no", "pixels)"]
+    );
+    assert!(!stdout.contains("inf"), "{stdout}");
+}

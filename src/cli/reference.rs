@@ -235,11 +235,13 @@ fn write(
         ("contour", &regions.contour),
         ("shadow", &regions.shadow),
     ] {
-        println!(
-            "  {name:8} {:7} px  {:.4}",
-            pixels.len(),
-            reference.relative_noise(pixels)
-        );
+        // An empty region has no noise to tell (its mean is 0): said so, not "inf".
+        let noise = if pixels.is_empty() {
+            "n/a (no pixels)".to_string()
+        } else {
+            format!("{:.4}", reference.relative_noise(pixels))
+        };
+        println!("  {name:8} {:7} px  {noise}", pixels.len());
     }
     println!(
         "wrote {} and its halves {}, {}",
