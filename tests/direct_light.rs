@@ -335,3 +335,77 @@ fn every_passs_footprint_shadow_rays_average_a_steep_falloff_to_second_order() {
     }
     assert!(worst <= 0.01, "worst pass's error {worst}");
 }
+
+/// The ray offset does not grow with the scene past its objects: under a floor 10^5 across
+/// (offset 2e-5 of the extent, 2.8, before), the glass sphere of radius 1 vanished with its
+/// shadow. The same view over the canonical 12 x 12 floor must agree wherever that floor is
+/// seen (beyond it, the huge floor goes on where the small one ends).
+#[test]
+fn a_small_object_keeps_its_shadow_under_a_huge_floor() {
+    use photondiff::render::film::Film;
+    let dir = tempfile::tempdir().unwrap();
+    let render = |half: f64, name: &str| {
+        let text = include_str!("../scenes/caustic-sphere.toml")
+            .replace("width = 640", "width = 64")
+            .replace("height = 480", "height = 48")
+            .replace(
+                "corner = [-6.0, 0.0, 6.0]",
+                &format!("corner = [{}, 0.0, {half}]", -half),
+            )
+            .replace(
+                "edge_u = [12.0, 0.0, 0.0]",
+                &format!("edge_u = [{}, 0.0, 0.0]", 2.0 * half),
+            )
+            .replace(
+                "edge_v = [0.0, 0.0, -12.0]",
+                &format!("edge_v = [0.0, 0.0, {}]", -2.0 * half),
+            );
+        let scene = dir.path().join(format!("{name}.toml"));
+        std::fs::write(&scene, text).unwrap();
+        let exr = dir.path().join(format!("{name}.exr"));
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&exr)
+            .args(["--estimator", "direct", "-q"])
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        Film::read_exr(&exr).unwrap()
+    };
+    let (small, huge) = (render(6.0, "small"), render(5e4, "huge"));
+    // Where the small floor is seen (beyond it the huge one goes on): the same light to within
+    // 2% (shadow rays start the offset, 0.025 here, above the floor, and their light falls off
+    // from there: about 1% at this light's distance), but at a few pixels on the sphere's
+    // silhouette, whose grazing chords through the glass are shorter than that offset.
+    let seen: Vec<_> = small
+        .pixels
+        .iter()
+        .zip(&huge.pixels)
+        .filter(|(a, _)| a.max_element() > 0.0)
+        .collect();
+    let differ = seen
+        .iter()
+        .filter(|(a, b)| (**a - **b).abs().max_element() > 2e-2 * a.max_element())
+        .count();
+    // The sphere's shadow is there in both (it was gone from the huge floor).
+    let shadow = seen
+        .iter()
+        .filter(|(a, b)| a.max_element() < 0.02 && b.max_element() < 0.02)
+        .count();
+    assert!(
+        seen.len() > 1000 && shadow >= 10,
+        "{} seen, {shadow} in shadow",
+        seen.len()
+    );
+    assert!(
+        differ * 100 < seen.len(),
+        "{differ} of {} differ",
+        seen.len()
+    );
+}

@@ -1,14 +1,14 @@
 //! What in a valid scene will make its image black or wrong without any error: no light, no
-//! surface, or an object so small next to the whole scene that the ray offsets step over it.
+//! surface, or an object so small next to its coordinates that the ray offsets step over it.
 //! The command line prints these as warnings; the scene still renders.
 
 use super::{Light, Material, Scene};
 
-/// A scene's extent over its smallest object's size beyond which that object is warned about:
-/// secondary rays start [`Scene::ray_epsilon`] (2e-5 of the extent) off a surface, so an object
-/// 50 offsets across is 1/1000 of the scene. A glass sphere 1/30,000 of its scene's floor lost
-/// its shadow and caustic; at 1/3,000 it rendered right.
-pub const MAX_EXTENT_OVER_OBJECT: f64 = 1000.0;
+/// The ray offset over an object's size beyond which the object is warned about. The offset
+/// ([`Scene::ray_epsilon`]) is kept at most 1e-3 of the smallest object, but never below ten
+/// single-precision steps of the scene's largest coordinate: an object far smaller than its
+/// distance from the origin cannot be told apart from its surroundings by Embree.
+pub const MAX_OFFSET_OVER_OBJECT: f64 = 0.01;
 
 /// The warnings for `scene`, each one line (without the file name).
 pub fn warnings(scene: &Scene) -> Vec<String> {
@@ -28,18 +28,16 @@ pub fn warnings(scene: &Scene) -> Vec<String> {
             "the scene has no shapes: light falls on nothing and the image will be black".into(),
         );
     }
-    let extent = scene.extent();
+    let epsilon = scene.ray_epsilon();
     for (mesh, [lo, hi]) in scene.meshes.iter().zip(scene.mesh_bounds()) {
         let size = (hi - lo).length();
-        if size > 0.0 && extent / size > MAX_EXTENT_OVER_OBJECT {
+        if size > 0.0 && epsilon > MAX_OFFSET_OVER_OBJECT * size {
             out.push(format!(
-                "{} is {size:.3e} across, 1/{:.0} of the scene's extent ({extent:.3e}): rays \
-                 leave surfaces {:.3e} off them, and may step over it (its shadow and the \
-                 light through it may be wrong); keep the scene within {MAX_EXTENT_OVER_OBJECT} \
-                 times its smallest object",
-                mesh.name,
-                extent / size,
-                scene.ray_epsilon()
+                "{} is {size:.3e} across, and rays leave surfaces {epsilon:.3e} off them (ten \
+                 single-precision steps at the scene's largest coordinate): its shadow and the \
+                 light through it may be wrong; bring the scene's coordinates closer to the \
+                 origin or its objects nearer in size",
+                mesh.name
             ));
         }
     }
@@ -106,15 +104,36 @@ mod tests {
     }
 
     #[test]
-    fn an_object_lost_in_a_huge_scene_is_named() {
-        // A floor 10^5 across under a ball 3.5 across: the ball's shadow vanished.
-        let w = warnings_of(&format!("{CAMERA}{LIGHT}{}{BALL}", floor(5e4)));
+    fn an_object_in_a_huge_scene_keeps_its_offsets_small_and_one_lost_in_it_is_named() {
+        // A floor 10^5 across under a ball 3.5 across: the offset was 2e-5 of the extent, 2.8,
+        // and the ball vanished; it is now 1e-3 of the ball, raised to ten single-precision
+        // steps at the floor's edge (5e-7 * 5e4 = 0.025), and nothing is left to warn about.
+        let huge = parse_scene(
+            &format!("{CAMERA}{LIGHT}{}{BALL}", floor(5e4)),
+            Path::new("."),
+        )
+        .unwrap();
+        assert!(
+            (huge.ray_epsilon() - 0.025).abs() < 1e-9,
+            "{}",
+            huge.ray_epsilon()
+        );
+        assert!(warnings(&huge).is_empty(), "{:?}", warnings(&huge));
+        // A scene of ordinary proportions keeps 2e-5 of its extent.
+        let plain = parse_scene(
+            &format!("{CAMERA}{LIGHT}{}{BALL}", floor(6.0)),
+            Path::new("."),
+        )
+        .unwrap();
+        assert_eq!(plain.ray_epsilon(), 2e-5 * plain.extent());
+        // At 10^7 across, single precision cannot place the ball's surface to within 1% of it.
+        let w = warnings_of(&format!("{CAMERA}{LIGHT}{}{BALL}", floor(5e6)));
         assert_eq!(w.len(), 1, "{w:?}");
         assert!(
-            w[0].starts_with("shapes[1] (sphere) is 3.464e0 across, 1/40825 of the scene's extent"),
+            w[0].starts_with(
+                "shapes[1] (sphere) is 3.464e0 across, and rays leave surfaces 2.500e0 off them"
+            ),
             "{w:?}"
         );
-        // 10^3 across: within the bound.
-        assert!(warnings_of(&format!("{CAMERA}{LIGHT}{}{BALL}", floor(500.0))).is_empty());
     }
 }
