@@ -1,5 +1,7 @@
 //! Direct light against analytic values, and bit-identical images on any thread count.
 
+mod common;
+
 use glam::DVec3;
 use photondiff::embree::Device;
 use photondiff::render::stats::Stats;
@@ -342,7 +344,6 @@ fn every_passs_footprint_shadow_rays_average_a_steep_falloff_to_second_order() {
 /// seen (beyond it, the huge floor goes on where the small one ends).
 #[test]
 fn a_small_object_keeps_its_shadow_under_a_huge_floor() {
-    use photondiff::render::film::Film;
     let dir = tempfile::tempdir().unwrap();
     let render = |half: f64, name: &str| {
         let text = include_str!("../scenes/caustic-sphere.toml")
@@ -362,21 +363,8 @@ fn a_small_object_keeps_its_shadow_under_a_huge_floor() {
             );
         let scene = dir.path().join(format!("{name}.toml"));
         std::fs::write(&scene, text).unwrap();
-        let exr = dir.path().join(format!("{name}.exr"));
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
-            .arg("render")
-            .arg(&scene)
-            .arg("-o")
-            .arg(&exr)
-            .args(["--estimator", "direct", "-q"])
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        Film::read_exr(&exr).unwrap()
+        let args = ["--estimator", "direct", "-q"];
+        common::render_file(&scene, &dir.path().join(name), &args).1
     };
     let (small, huge) = (render(6.0, "small"), render(5e4, "huge"));
     // Where the small floor is seen (beyond it the huge one goes on): the same light to within
@@ -384,9 +372,8 @@ fn a_small_object_keeps_its_shadow_under_a_huge_floor() {
     // from there: about 1% at this light's distance), but at a few pixels on the sphere's
     // silhouette, whose grazing chords through the glass are shorter than that offset.
     let seen: Vec<_> = small
-        .pixels
         .iter()
-        .zip(&huge.pixels)
+        .zip(&huge)
         .filter(|(a, _)| a.max_element() > 0.0)
         .collect();
     let differ = seen
