@@ -563,3 +563,71 @@ fn a_degenerate_light_is_named_once() {
          [-0.3, 1.99, 0.0] [-0.3, 1.99, 0.0] [-0.3, 1.99, 0.6]"
     );
 }
+
+/// A scene, mesh or photon-map file that is a device (here a link to `/dev/zero`, which never
+/// ends) is refused at once: `info` and `render` used to read it until memory ran out.
+#[test]
+fn inputs_that_are_devices_are_refused_at_once() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let zero = |name: &str| {
+        let path = dir.path().join(name);
+        std::os::unix::fs::symlink("/dev/zero", &path).unwrap();
+        path
+    };
+    let (scene, mesh, maps) = (zero("zero.toml"), zero("zero.obj"), zero("zero.maps"));
+    let good = dir.path().join("good.toml");
+    std::fs::write(
+        &good,
+        format!("{CAMERA}{REST}\n[[shapes]]\ntype = \"mesh\"\nfile = \"zero.obj\"\nmaterial = \"white\"\n"),
+    )
+    .unwrap();
+    let run = |args: &[&std::ffi::OsStr]| {
+        let out = Command::new(exe).args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(1));
+        String::from_utf8_lossy(&out.stderr).trim().to_string()
+    };
+    let os = |s: &'static str| std::ffi::OsStr::new(s);
+    let out = dir.path().join("out.exr");
+    assert_eq!(
+        run(&[os("info"), scene.as_os_str()]),
+        format!(
+            "photondiff: error: {}: cannot read: is a device, not a file",
+            scene.display()
+        )
+    );
+    assert_eq!(
+        run(&[os("render"), scene.as_os_str(), os("-o"), out.as_os_str()]),
+        format!(
+            "photondiff: error: {}: cannot read: is a device, not a file",
+            scene.display()
+        )
+    );
+    assert_eq!(
+        run(&[os("info"), mesh.as_os_str()]),
+        format!(
+            "photondiff: error: {}: cannot read OBJ: is a device, not a file",
+            mesh.display()
+        )
+    );
+    let e = run(&[os("render"), good.as_os_str(), os("-o"), out.as_os_str()]);
+    assert!(e.ends_with("is a device, not a file"), "{e}");
+    let canonical = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/caustic-sphere.toml");
+    let e = run(&[
+        os("render"),
+        canonical.as_os_str(),
+        os("--photon-maps"),
+        maps.as_os_str(),
+        os("-o"),
+        out.as_os_str(),
+        os("--quiet"),
+    ]);
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {}: cannot read photon maps: is a device, not a file",
+            maps.display()
+        )
+    );
+    assert!(!out.exists());
+}

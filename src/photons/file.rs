@@ -215,7 +215,8 @@ pub fn read(
     options: &PhotonOptions,
 ) -> Result<(PhotonMaps, [TraceCounts; 2]), String> {
     let name = path.display();
-    let bytes = std::fs::read(path).map_err(|e| format!("{name}: cannot read photon maps: {e}"))?;
+    let bytes = crate::util::input::read(path)
+        .map_err(|e| format!("{name}: cannot read photon maps: {e}"))?;
     decode(&bytes, scene_hash, options).map_err(|e| format!("{name}: {e}"))
 }
 

@@ -119,7 +119,8 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
         file: path.to_path_buf(),
         message,
     };
-    let text = std::fs::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
+    let text =
+        crate::util::input::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
     parse_scene(&text, base).map_err(err)
 }

@@ -41,8 +41,9 @@ fn mesh_files(text: &str, base: &Path) -> Vec<PathBuf> {
 
 /// The content hash of the scene file at `path` and its mesh files.
 pub fn scene_hash(path: &Path) -> Result<u64, String> {
-    let read =
-        |p: &Path| std::fs::read(p).map_err(|e| format!("{}: cannot read: {e}", p.display()));
+    let read = |p: &Path| {
+        crate::util::input::read(p).map_err(|e| format!("{}: cannot read: {e}", p.display()))
+    };
     let scene = read(path)?;
     let base = path.parent().unwrap_or(Path::new(""));
     let mut hash = fnv1a(FNV_OFFSET, &(scene.len() as u64).to_le_bytes());

@@ -1,7 +1,8 @@
 //! Small utilities every stage shares: random number streams, progress bars, atomic file
-//! output, the process's memory, a trace for profiling and the request to stop a run early.
+//! output, input files that are files, the process's memory, a trace for profiling and the request to stop a run early.
 
 pub mod atomic;
+pub mod input;
 pub mod interrupt;
 pub mod memory;
 pub mod progress;

@@ -15,7 +15,7 @@ use std::path::Path;
 
 /// Loads the OBJ file at `path`.
 pub fn load(path: &Path) -> Result<(TriangleMesh, MeshReport), String> {
-    let file = std::fs::File::open(path).map_err(|e| format!("cannot read OBJ: {e}"))?;
+    let file = crate::util::input::open(path).map_err(|e| format!("cannot read OBJ: {e}"))?;
     parse(std::io::BufReader::with_capacity(1 << 16, file))
 }
 

@@ -18,7 +18,7 @@ use std::path::Path;
 
 /// Loads the PLY file at `path`.
 pub fn load(path: &Path) -> Result<(TriangleMesh, MeshReport), String> {
-    let file = std::fs::File::open(path).map_err(|e| format!("cannot read PLY: {e}"))?;
+    let file = crate::util::input::open(path).map_err(|e| format!("cannot read PLY: {e}"))?;
     let file_size = file
         .metadata()
         .map_err(|e| format!("cannot read PLY: {e}"))?
