@@ -3,6 +3,7 @@
 //! The command line prints these as warnings; the scene still renders.
 
 use super::{Light, Material, Scene};
+use glam::DVec3;
 
 /// The ray offset over an object's size beyond which the object is warned about. The offset
 /// ([`Scene::ray_epsilon`]) is kept at most 1e-3 of the smallest object, but never below ten
@@ -28,6 +29,9 @@ pub fn warnings(scene: &Scene) -> Vec<String> {
             "the scene has no shapes: light falls on nothing and the image will be black".into(),
         );
     }
+    if surfaces > 0 {
+        out.extend(view_warning(scene));
+    }
     let epsilon = scene.ray_epsilon();
     for (mesh, [lo, hi]) in scene.meshes.iter().zip(scene.mesh_bounds()) {
         let size = (hi - lo).length();
@@ -42,6 +46,73 @@ pub fn warnings(scene: &Scene) -> Vec<String> {
         }
     }
     out
+}
+
+/// The least share of the image the scene's box may cover, seen whole in front of the camera,
+/// before the view is warned about.
+pub const MIN_VIEW_SHARE: f64 = 0.01;
+
+/// A warning when the camera sees none of the scene, or the whole scene in less than
+/// [`MIN_VIEW_SHARE`] of the image (`fov_y = 179` shrinks a room to a few pixels): the box of
+/// every surface, projected; a box reaching from behind the camera to before it is taken as
+/// seen.
+fn view_warning(scene: &Scene) -> Option<String> {
+    let c = &scene.camera;
+    let (lo, hi) = scene
+        .meshes
+        .iter()
+        .zip(scene.mesh_bounds())
+        .filter(|(m, _)| !matches!(m.material, Material::Emitter { .. }))
+        .fold(
+            (DVec3::INFINITY, DVec3::NEG_INFINITY),
+            |(lo, hi), (_, [a, b])| (lo.min(a), hi.max(b)),
+        );
+    let (mut x0, mut y0, mut x1, mut y1) =
+        (f64::INFINITY, f64::INFINITY, -f64::INFINITY, -f64::INFINITY);
+    let mut behind = 0;
+    for k in 0..8 {
+        let corner = DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        );
+        match c.project(corner) {
+            Some((x, y)) => (x0, y0, x1, y1) = (x0.min(x), y0.min(y), x1.max(x), y1.max(y)),
+            None => behind += 1,
+        }
+    }
+    if behind == 8 {
+        return Some("the camera sees none of the scene's shapes: the image will be black".into());
+    }
+    if behind > 0 {
+        return None;
+    }
+    let (w, h) = (f64::from(c.width), f64::from(c.height));
+    let covered = (x1.min(w) - x0.max(0.0)).max(0.0) * (y1.min(h) - y0.max(0.0)).max(0.0);
+    if !covered.is_finite() {
+        return None;
+    }
+    if covered <= 0.0 {
+        return Some("the camera sees none of the scene's shapes: the image will be black".into());
+    }
+    let share = covered / (w * h);
+    (share < MIN_VIEW_SHARE).then(|| {
+        format!(
+            "the scene's shapes cover under {}% of the image (at most {} of {} pixels; \
+             fov_y = {}): the image will be almost black",
+            100.0 * MIN_VIEW_SHARE,
+            covered.ceil(),
+            u64::from(c.width) * u64::from(c.height),
+            shown_fov(c.tan_half_fov)
+        )
+    })
+}
+
+/// The vertical field of view in degrees, as the scene file gave it (to the rounding shown).
+fn shown_fov(tan_half_fov: f64) -> String {
+    let degrees = 2.0 * tan_half_fov.atan().to_degrees();
+    let rounded = (degrees * 1e6).round() / 1e6;
+    format!("{rounded}")
 }
 
 /// The largest channel of a light's intensity or radiance.
@@ -101,6 +172,28 @@ mod tests {
             warnings_of(&format!("{CAMERA}{LIGHT}")),
             ["the scene has no shapes: light falls on nothing and the image will be black"]
         );
+    }
+
+    #[test]
+    fn a_scene_out_of_view_or_shrunk_to_a_few_pixels_is_named() {
+        let scene = format!("{LIGHT}{}{BALL}", floor(2.0));
+        let wide = CAMERA.replace("fov_y = 40.0", "fov_y = 179.0");
+        let w = warnings_of(&format!("{wide}{scene}"));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with("the scene's shapes cover under 1% of the image (at most 1 of 48 ")
+                && w[0].contains("fov_y = 179)"),
+            "{w:?}"
+        );
+        let away = CAMERA.replace("look_at = [0.0, 0.0, 0.0]", "look_at = [0.0, 2.0, 10.0]");
+        assert_eq!(
+            warnings_of(&format!("{away}{scene}")),
+            ["the camera sees none of the scene's shapes: the image will be black"]
+        );
+        // A camera inside the scene's box sees it.
+        let inside = CAMERA.replace("eye = [0.0, 2.0, 5.0]", "eye = [0.0, 0.5, 1.0]");
+        assert!(warnings_of(&format!("{inside}{scene}")).is_empty());
+        assert!(warnings_of(&format!("{CAMERA}{scene}")).is_empty());
     }
 
     #[test]
