@@ -15,6 +15,7 @@
 
 use crate::photons::cover::OFF_PLANE_TOLERANCE;
 use crate::photons::map::Photon;
+use crate::photons::prism::Prism;
 use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
 use wide::f32x4;
@@ -256,7 +257,19 @@ impl FootprintBvh {
     ///
     /// [`renumber`]: FootprintBvh::renumber
     #[inline]
-    pub fn leaves_overlapping(&self, query: &Aabb, mut visit: impl FnMut(usize, usize)) {
+    pub fn leaves_overlapping(&self, query: &Aabb, visit: impl FnMut(usize, usize)) {
+        self.leaves_meeting(query, None, visit);
+    }
+
+    /// [`FootprintBvh::leaves_overlapping`], and where `prism` is given, only the leaves whose
+    /// bounds also meet it (the box and the prism are not separated along either of its axes).
+    #[inline]
+    pub fn leaves_meeting(
+        &self,
+        query: &Aabb,
+        prism: Option<&Prism>,
+        mut visit: impl FnMut(usize, usize),
+    ) {
         if self.nodes.is_empty() {
             return;
         }
@@ -277,6 +290,9 @@ impl FootprintBvh {
             let node = &self.nodes[(entry >> 3) as usize];
             // Children pushed last first, so that child 0 is taken first: leaf order.
             let mut hit = node.overlapping_children(&q);
+            if let Some(prism) = prism.filter(|_| hit != 0) {
+                hit &= !prism.apart(&node.min, &node.max);
+            }
             while hit != 0 {
                 let k = 31 - hit.leading_zeros();
                 hit &= !(1 << k);

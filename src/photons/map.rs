@@ -5,6 +5,7 @@
 use crate::photons::cover::{CoverQuery, CoverTable};
 use crate::photons::footprint::{Footprint, Guards};
 use crate::photons::footprint_bvh::{footprint_box, Aabb, FootprintBvh};
+use crate::photons::prism::Prism;
 use glam::{DVec3, Vec3};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
@@ -166,10 +167,13 @@ impl PhotonMap {
         // covers lies in the footprint's plane, so their boxes share that point.)
         let half = 0.5 * (f[0].abs() + f[1].abs());
         let query = rounded_out(x - half, x + half);
+        // And its prism: a thin footprint askew to the axes has a box far larger than itself.
+        let prism = Prism::over(x, &f);
         // The photons are in leaf order, so a leaf's slots are its photons' indices.
-        self.bvh.leaves_overlapping(&query, |first, count| {
-            self.cover.leaf(first, count, &q, out)
-        });
+        self.bvh
+            .leaves_meeting(&query, prism.as_ref(), |first, count| {
+                self.cover.leaf(first, count, &q, out)
+            });
     }
 
     /// The (at most) `k` nearest photons within `max_radius` of `x`, nearest first, as

@@ -1,7 +1,8 @@
 //! Photon tracing: emission from the lights with emission differentials ([`emission`]), light
 //! paths through the scene ([`light_path`]), the photons they store ([`trace`]), each with its
 //! footprint ([`footprint`]), gathered into photon maps ([`map`]) with a BVH over footprint
-//! boxes ([`footprint_bvh`]) and an exact test of what a footprint may cover ([`cover`]); for
+//! boxes ([`footprint_bvh`]), queried by a footprint's box and, for thin footprints askew to the
+//! axes, its prism ([`prism`]), and an exact test of what a footprint may cover ([`cover`]); for
 //! final gathering, radiance precomputed at photons of every diffuse hit ([`radiance_map`]).
 //! Footprints that run into a wall or off an edge get a mirror photon beyond it ([`walls`]).
 
@@ -12,6 +13,7 @@ pub mod footprint;
 pub mod footprint_bvh;
 pub mod light_path;
 pub mod map;
+pub mod prism;
 pub mod radiance_map;
 pub mod targets;
 pub mod trace;
