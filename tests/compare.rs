@@ -451,3 +451,58 @@ fn the_error_map_needs_a_file_of_its_own() {
         )
     );
 }
+
+/// Against a reference that is zero everywhere, the error map shows absolute errors and says
+/// so, on stderr and in the colour bar's title (it used to be titled "relative error").
+#[test]
+fn an_all_zero_reference_gives_an_absolute_error_map() {
+    let d = tempfile::tempdir().unwrap();
+    // The relative map of i against r (mean 1.5) and the absolute map of e against zero, on
+    // one scale: their colour bars differ in the title only.
+    let i = write(d.path(), "i.exr", 2, 2, &[("Y", vec![1.0, 1.5, 2.0, 2.25])]);
+    let r = write(d.path(), "r.exr", 2, 2, &[("Y", vec![1.0, 1.0, 2.0, 2.0])]);
+    let z = write(d.path(), "z.exr", 2, 2, &[("Y", vec![0.0; 4])]);
+    let e = write(d.path(), "e.exr", 2, 2, &[("Y", vec![0.0, 0.5, 0.0, 0.25])]);
+    let (relative, absolute) = (d.path().join("rel.png"), d.path().join("abs.png"));
+    let scale = [Path::new("--error-map-max"), Path::new("0.5")];
+    let out = run(&[
+        &i,
+        &r,
+        Path::new("--error-map"),
+        &relative,
+        scale[0],
+        scale[1],
+    ]);
+    assert!(out.status.success());
+    assert!(!String::from_utf8_lossy(&out.stderr).contains("note"));
+    let out = run(&[
+        &e,
+        &z,
+        Path::new("--error-map"),
+        &absolute,
+        scale[0],
+        scale[1],
+    ]);
+    assert!(out.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr).trim(),
+        "photondiff: note: the reference is zero everywhere: the error map shows absolute \
+         errors (RMS over channels of I - R)"
+    );
+    let (rel, abs) = (
+        image::open(&relative).unwrap().into_rgb8(),
+        image::open(&absolute).unwrap().into_rgb8(),
+    );
+    // The absolute map holds the errors themselves: 0.5 is the top colour, 0.25 the middle.
+    assert_eq!(abs.get_pixel(1, 0).0, [253, 231, 37]);
+    assert_eq!(abs.get_pixel(1, 1).0, [33, 144, 141]);
+    // The titles (the panel's top 20 rows) differ, the ticks below do not.
+    let differ = |y0: u32, y1: u32| {
+        (2..2 + 104)
+            .flat_map(|x| (y0..y1).map(move |y| (x, y)))
+            .filter(|&(x, y)| rel.get_pixel(x, y) != abs.get_pixel(x, y))
+            .count()
+    };
+    assert!(differ(0, 20) > 20, "{}", differ(0, 20));
+    assert_eq!(differ(24, 180), 0);
+}

@@ -5,7 +5,7 @@
 use super::create_parent;
 use photondiff::reference::channels::ChannelImage;
 use photondiff::reference::compare::{
-    check_same_shape, measure, read_mask, relative_error_per_pixel, RegionMetrics,
+    check_same_shape, measure, read_mask, relative_error_per_pixel, ErrorScale, RegionMetrics,
 };
 use photondiff::reference::error_map;
 use std::path::{Path, PathBuf};
@@ -25,7 +25,8 @@ pub struct CompareArgs {
     #[arg(long)]
     json: bool,
     /// Write a false-colour map of the per-pixel relative error (RMS over channels of I - R,
-    /// over the reference's mean) with a colour bar to OUT.png.
+    /// over the reference's mean; absolute, and said so, against a reference that is zero
+    /// everywhere) with a colour bar to OUT.png.
     #[arg(long, value_name = "OUT.png")]
     error_map: Option<PathBuf>,
     /// Top of the error map's colour scale. Default: the 99th percentile of the per-pixel
@@ -133,7 +134,13 @@ pub fn run(args: &CompareArgs) -> Result<(), String> {
     };
 
     if let Some(path) = &args.error_map {
-        let errors = relative_error_per_pixel(&image, &reference);
+        let (errors, scale) = relative_error_per_pixel(&image, &reference);
+        if scale == ErrorScale::Absolute {
+            eprintln!(
+                "photondiff: note: the reference is zero everywhere: the error map shows \
+                 absolute errors (RMS over channels of I - R)"
+            );
+        }
         let union: Option<Vec<bool>> = (!masks.is_empty()).then(|| {
             (0..errors.len())
                 .map(|i| masks.iter().any(|(_, m)| m[i]))
@@ -145,8 +152,8 @@ pub fn run(args: &CompareArgs) -> Result<(), String> {
             None => error_map::default_max(&errors, union.as_deref()),
         };
         create_parent(path)?;
-        error_map::render(&errors, image.width, image.height, max, union.as_deref())
-            .write_png(path)?;
+        let (w, h, inside) = (image.width, image.height, union.as_deref());
+        error_map::render(&errors, w, h, max, inside, scale.title()).write_png(path)?;
     }
 
     if args.json {

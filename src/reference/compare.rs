@@ -153,10 +153,33 @@ pub fn measure(
     }
 }
 
+/// What an error map's values are.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ErrorScale {
+    /// Over the reference's mean.
+    Relative,
+    /// As they are: the reference is zero everywhere, and has no mean to divide by.
+    Absolute,
+}
+
+impl ErrorScale {
+    /// The colour bar's title.
+    pub fn title(self) -> &'static str {
+        match self {
+            ErrorScale::Relative => "relative error",
+            ErrorScale::Absolute => "absolute error",
+        }
+    }
+}
+
 /// Per-pixel relative error, the error map's quantity: `sqrt(mean over channels (I - R)^2)`
 /// divided by the reference's mean over the whole image, so that the region's relRMSE is the
-/// root mean square of these values when the region is the whole image.
-pub fn relative_error_per_pixel(image: &ChannelImage, reference: &ChannelImage) -> Vec<f64> {
+/// root mean square of these values when the region is the whole image; undivided (and said
+/// so) where that mean is not positive.
+pub fn relative_error_per_pixel(
+    image: &ChannelImage,
+    reference: &ChannelImage,
+) -> (Vec<f64>, ErrorScale) {
     let channels = reference.measured_channels();
     let n = reference.width * reference.height;
     let mean_r = (0..n)
@@ -164,7 +187,7 @@ pub fn relative_error_per_pixel(image: &ChannelImage, reference: &ChannelImage) 
         .map(|(c, i)| reference.planes[c][i])
         .sum::<f64>()
         / (n * channels.len()).max(1) as f64;
-    (0..n)
+    let errors = (0..n)
         .map(|i| {
             let e2 = channels
                 .iter()
@@ -177,5 +200,11 @@ pub fn relative_error_per_pixel(image: &ChannelImage, reference: &ChannelImage) 
                 e2.sqrt()
             }
         })
-        .collect()
+        .collect();
+    let scale = if mean_r > 0.0 {
+        ErrorScale::Relative
+    } else {
+        ErrorScale::Absolute
+    };
+    (errors, scale)
 }

@@ -1,4 +1,5 @@
-//! False-colour images of the per-pixel relative error, with a labelled colour bar.
+//! False-colour images of the per-pixel relative error (absolute against a reference that is
+//! zero everywhere), with a labelled colour bar.
 
 use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
 use std::path::Path;
@@ -129,18 +130,19 @@ pub fn label(v: f64) -> String {
 
 /// The false-colour map of `errors` (a `width` x `height` plane, row-major) from 0 to `max`,
 /// values above `max` drawn in the top colour; pixels outside `inside` (when given) grey; a
-/// colour bar with five labelled ticks on the right.
+/// colour bar with five labelled ticks on the right, under `title`.
 pub fn render(
     errors: &[f64],
     width: usize,
     height: usize,
     max: f64,
     inside: Option<&[bool]>,
+    title: &str,
 ) -> Canvas {
     let mut canvas = Canvas::new(width + PANEL, height.max(MIN_HEIGHT));
     draw_map(&mut canvas, errors, width, height, max, inside);
     let clipped = errors.iter().any(|&e| e > max);
-    draw_bar(&mut canvas, width, max, clipped);
+    draw_bar(&mut canvas, width, max, clipped, title);
     canvas
 }
 
@@ -157,10 +159,10 @@ pub fn render_plain(
     canvas
 }
 
-/// The colour bar alone, `height` pixels tall (at least 180).
-pub fn colour_bar(max: f64, clipped: bool, height: usize) -> Canvas {
+/// The colour bar alone under `title`, `height` pixels tall (at least 180).
+pub fn colour_bar(max: f64, clipped: bool, height: usize, title: &str) -> Canvas {
     let mut canvas = Canvas::new(PANEL, height.max(MIN_HEIGHT));
-    draw_bar(&mut canvas, 0, max, clipped);
+    draw_bar(&mut canvas, 0, max, clipped, title);
     canvas
 }
 
@@ -186,7 +188,7 @@ fn draw_map(
 }
 
 /// The bar in the panel starting at column `left`: top = `max`, bottom = 0, five ticks.
-fn draw_bar(canvas: &mut Canvas, left: usize, max: f64, clipped: bool) {
+fn draw_bar(canvas: &mut Canvas, left: usize, max: f64, clipped: bool, title: &str) {
     let font = FontRef::try_from_slice(dejavu::sans::regular()).expect("DejaVu Sans parses");
     let (bar_x, bar_w, top, bottom) = (left + 12, 16, 28usize, canvas.height - 12);
     for y in top..=bottom {
@@ -195,7 +197,7 @@ fn draw_bar(canvas: &mut Canvas, left: usize, max: f64, clipped: bool) {
             canvas.set(x, y, c);
         }
     }
-    canvas.text(&font, (left + 6) as f32, 16.0, 11.0, "relative error");
+    canvas.text(&font, (left + 6) as f32, 16.0, 11.0, title);
     for k in 0..=4 {
         let y = bottom - (bottom - top) * k / 4;
         for x in bar_x + bar_w..bar_x + bar_w + 4 {

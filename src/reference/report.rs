@@ -3,7 +3,7 @@
 //! (`index.html`, `img/`), no network access needed (style and scripts inline).
 
 use super::channels::ChannelImage;
-use super::compare::{measure, relative_error_per_pixel};
+use super::compare::{measure, relative_error_per_pixel, ErrorScale};
 use super::error_map;
 use super::metrics::Regions;
 use super::report_assets::{BODY_SCRIPT, HEAD_SCRIPT, STYLE};
@@ -187,12 +187,13 @@ pub fn write(report: &Report, dir: &Path) -> Result<PathBuf, String> {
         tone_map(reference, report.exposure),
     )];
     let mut errors = Vec::new();
+    let mut scale = ErrorScale::Relative;
     for r in &report.renders {
         images.push((r.label.clone(), tone_map(&r.film, report.exposure)));
-        errors.push(relative_error_per_pixel(
-            &ChannelImage::from_film(&r.film),
-            &reference_channels,
-        ));
+        let (e, s) =
+            relative_error_per_pixel(&ChannelImage::from_film(&r.film), &reference_channels);
+        errors.push(e);
+        scale = s;
     }
     let max = errors
         .iter()
@@ -210,7 +211,8 @@ pub fn write(report: &Report, dir: &Path) -> Result<PathBuf, String> {
     for (k, rgb) in maps.iter().enumerate() {
         save(&img.join(format!("error-{}.png", k + 1)), rgb, w, h)?;
     }
-    error_map::colour_bar(max, clipped, h.min(320)).write_png(&img.join("colour-bar.png"))?;
+    error_map::colour_bar(max, clipped, h.min(320), scale.title())
+        .write_png(&img.join("colour-bar.png"))?;
 
     // The views share one display size: the image's, scaled to between 256 and 420 pixels wide.
     let display_w = if w < 256 {
