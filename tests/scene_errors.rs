@@ -631,3 +631,43 @@ fn inputs_that_are_devices_are_refused_at_once() {
     );
     assert!(!out.exists());
 }
+
+/// A value of the wrong type in a material, light or shape names its field (it named only the
+/// table's header line: `segments = -4` gave "invalid value: integer `-4`, expected u32").
+#[test]
+fn a_wrong_type_in_a_typed_table_names_the_field() {
+    let sphere = "type = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nmaterial = \"white\"\n";
+    let e = error_of(
+        &with_shape(&format!("{sphere}radius = 1.0\nsegments = -4")),
+        &[],
+    );
+    assert!(
+        e.starts_with("TOML parse error at line 19, column 1"),
+        "{e}"
+    );
+    assert!(
+        e.ends_with("\nsegments: invalid value: integer `-4`, expected u32 (type \"sphere\")"),
+        "{e:?}"
+    );
+    let e = error_of(&with_shape(&format!("{sphere}radius = \"big\"")), &[]);
+    assert!(
+        e.contains("\nradius: invalid type: string \"big\", expected f64"),
+        "{e}"
+    );
+    let e = error_of(
+        &with_shape(&format!("{sphere}radius = 1.0"))
+            .replace("albedo = [0.5, 0.5, 0.5]", "albedo = [0.5, 0.5]"),
+        &[],
+    );
+    assert!(e.contains("[materials.white]"), "{e}");
+    assert!(
+        e.contains("\nalbedo: invalid length 2, expected an array of length 3 (type \"diffuse\")"),
+        "{e}"
+    );
+    let e = error_of(
+        &with_shape(&format!("{sphere}radius = 1.0"))
+            .replace("intensity = [10.0, 10.0, 10.0]", "intensity = 10"),
+        &[],
+    );
+    assert!(e.contains("\nintensity: invalid type: integer `10`, expected an array of length 3 (type \"point\")"), "{e}");
+}

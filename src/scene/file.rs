@@ -5,6 +5,10 @@
 
 use crate::embree::MAX_COORDINATE;
 use crate::scene::camera::Camera;
+use crate::scene::descriptions::{
+    Diffuse, Glass, LightDesc, MaterialDesc, MeshShape, Mirror, PointLight, QuadLight, QuadShape,
+    ShapeDesc, SphereShape, SpotLight, Vec3,
+};
 use crate::scene::instances::{InstanceDesc, MeshDesc};
 use crate::scene::mesh_file::{load_mesh_with_report, MeshReport};
 use crate::scene::shapes;
@@ -24,8 +28,6 @@ pub struct SceneError {
     /// What is wrong (with the line, field or mesh file at fault).
     pub message: String,
 }
-
-type Vec3 = [f64; 3];
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -52,57 +54,6 @@ struct CameraDesc {
     fov_y: f64,
     width: u32,
     height: u32,
-}
-
-#[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
-enum MaterialDesc {
-    Diffuse { albedo: Vec3 },
-    Mirror { reflectance: Vec3 },
-    Glass { ior: f64 },
-}
-
-#[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
-enum LightDesc {
-    Point {
-        position: Vec3,
-        intensity: Vec3,
-    },
-    Spot {
-        position: Vec3,
-        direction: Vec3,
-        intensity: Vec3,
-        cone_angle: f64,
-        falloff_start: Option<f64>,
-    },
-    Quad {
-        corner: Vec3,
-        edge_u: Vec3,
-        edge_v: Vec3,
-        radiance: Vec3,
-    },
-}
-
-#[derive(Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase", deny_unknown_fields)]
-enum ShapeDesc {
-    Mesh {
-        file: PathBuf,
-        material: String,
-    },
-    Quad {
-        corner: Vec3,
-        edge_u: Vec3,
-        edge_v: Vec3,
-        material: String,
-    },
-    Sphere {
-        center: Vec3,
-        radius: f64,
-        material: String,
-        segments: Option<u32>,
-    },
 }
 
 /// Largest image side accepted, to catch typos before allocating a huge film.
@@ -271,7 +222,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
     for (name, m) in &file.materials {
         let field = format!("materials.{name}");
         let material = match *m {
-            MaterialDesc::Diffuse { albedo } => {
+            MaterialDesc::Diffuse(Diffuse { albedo }) => {
                 let albedo = non_negative(&format!("{field}.albedo"), albedo)?;
                 if albedo.max_element() > 1.0 {
                     return Err(format!(
@@ -281,7 +232,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 }
                 Material::Diffuse { albedo }
             }
-            MaterialDesc::Mirror { reflectance } => {
+            MaterialDesc::Mirror(Mirror { reflectance }) => {
                 let reflectance = non_negative(&format!("{field}.reflectance"), reflectance)?;
                 if reflectance.max_element() > 1.0 {
                     return Err(format!(
@@ -291,7 +242,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 }
                 Material::Mirror { reflectance }
             }
-            MaterialDesc::Glass { ior } => {
+            MaterialDesc::Glass(Glass { ior }) => {
                 let ior = number(&format!("{field}.ior"), ior)?;
                 if ior <= 0.0 {
                     return Err(format!("{field}.ior: must be > 0, got {ior}"));
@@ -320,7 +271,7 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
         let field = format!("shapes[{i}]");
         let mut report = MeshReport::default();
         let (kind, mut mesh, material) = match shape {
-            ShapeDesc::Mesh { file, material: m } => {
+            ShapeDesc::Mesh(MeshShape { file, material: m }) => {
                 let path = base.join(file);
                 let loaded =
                     load_mesh_with_report(&path).map_err(|e| format!("{field}.file: {e}"))?;
@@ -328,22 +279,22 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                 let kind = format!("mesh {}", file.display());
                 (kind, loaded.mesh, material(&field, m)?)
             }
-            ShapeDesc::Quad {
+            ShapeDesc::Quad(QuadShape {
                 corner,
                 edge_u,
                 edge_v,
                 material: m,
-            } => {
+            }) => {
                 let [c, u, v] = parallelogram(&field, *corner, *edge_u, *edge_v)?;
                 let mesh = shapes::quad(c, u, v);
                 ("quad".to_string(), mesh, material(&field, m)?)
             }
-            ShapeDesc::Sphere {
+            ShapeDesc::Sphere(SphereShape {
                 center,
                 radius,
                 material: m,
                 segments,
-            } => {
+            }) => {
                 let center = vec3(&format!("{field}.center"), *center)?;
                 let radius = number(&format!("{field}.radius"), *radius)?;
                 if radius <= 0.0 {
@@ -420,20 +371,20 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
     for (i, l) in file.lights.iter().enumerate() {
         let field = format!("lights[{i}]");
         let light = match *l {
-            LightDesc::Point {
+            LightDesc::Point(PointLight {
                 position,
                 intensity,
-            } => Light::Point {
+            }) => Light::Point {
                 position: point(&format!("{field}.position"), position)?,
                 intensity: emission(&format!("{field}.intensity"), intensity)?,
             },
-            LightDesc::Spot {
+            LightDesc::Spot(SpotLight {
                 position,
                 direction,
                 intensity,
                 cone_angle,
                 falloff_start,
-            } => {
+            }) => {
                 let direction = vec3(&format!("{field}.direction"), direction)?;
                 // Scaled first, as the camera's up: [1e300, -1e300, 0] is a direction.
                 let direction = (direction / direction.abs().max_element())
@@ -462,12 +413,12 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
                     cos_falloff_start: start.to_radians().cos(),
                 }
             }
-            LightDesc::Quad {
+            LightDesc::Quad(QuadLight {
                 corner,
                 edge_u,
                 edge_v,
                 radiance,
-            } => {
+            }) => {
                 let [c, u, v] = parallelogram(&field, corner, edge_u, edge_v)?;
                 let radiance = emission(&format!("{field}.radiance"), radiance)?;
                 meshes.push(SceneMesh {

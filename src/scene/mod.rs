@@ -3,6 +3,7 @@
 //! turned into an Embree scene by [`Scene::build_embree`].
 
 pub mod camera;
+pub mod descriptions;
 pub mod file;
 pub mod hash;
 mod instances;
