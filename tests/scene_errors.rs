@@ -671,3 +671,43 @@ fn a_wrong_type_in_a_typed_table_names_the_field() {
     );
     assert!(e.contains("\nintensity: invalid type: integer `10`, expected an array of length 3 (type \"point\")"), "{e}");
 }
+
+/// `--max-depth` is at most 256: a camera path's bounces are followed recursively, and 100,000
+/// overflowed a worker's stack and aborted the process (exit status 134) in the canonical
+/// scene, where light circles inside the glass sphere by total internal reflection.
+#[test]
+fn max_depth_is_bounded_and_its_bound_renders() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/caustic-sphere.toml");
+    let out = dir.path().join("deep.exr");
+    let run = |depth: &str| {
+        Command::new(exe)
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .args([
+                "--estimator",
+                "direct",
+                "--threads",
+                "2",
+                "--quiet",
+                "--max-depth",
+                depth,
+            ])
+            .output()
+            .unwrap()
+    };
+    let refused = run("257");
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr)
+        .starts_with("error: invalid value '257' for '--max-depth <N>': 257 is not in 0..=256"));
+    let deep = run("256");
+    assert!(
+        deep.status.success(),
+        "{}",
+        String::from_utf8_lossy(&deep.stderr)
+    );
+    assert!(out.exists());
+}

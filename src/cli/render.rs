@@ -22,6 +22,12 @@ use std::path::{Path, PathBuf};
 /// The longest `--time-budget` taken, in seconds: 365 days.
 const MAX_TIME_BUDGET: f64 = 31_536_000.0;
 
+/// The most mirror/glass bounces a camera path may take (`--max-depth`). Each bounce is a level
+/// of recursion on a worker thread's stack (about 1.4 KB a level: 1,500 overflowed the default
+/// 2 MiB stack and aborted the process); 256 leaves a wide margin, and a path whose weight falls
+/// below 1e-3 ends well before it in any scene that absorbs light.
+pub const MAX_DEPTH: u32 = 256;
+
 #[derive(clap::Args)]
 pub struct RenderArgs {
     /// The scene file (TOML; see README.md for the format).
@@ -59,8 +65,10 @@ pub struct RenderArgs {
     /// Write the run's statistics (times per stage, rays by kind) as JSON to FILE.
     #[arg(long, value_name = "FILE")]
     stats_json: Option<PathBuf>,
-    /// Maximum number of mirror/glass bounces of a camera path.
-    #[arg(long, value_name = "N", default_value_t = 10)]
+    /// Maximum number of mirror/glass bounces of a camera path, at most 256 (a path's bounces
+    /// are followed recursively, and glass splits each one in two; photon paths stop at 64).
+    #[arg(long, value_name = "N", default_value_t = 10,
+          value_parser = clap::value_parser!(u32).range(0..=MAX_DEPTH as i64))]
     max_depth: u32,
     /// Area-light samples per shading point along each axis (N x N stratified).
     #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
