@@ -213,7 +213,8 @@ fn references_made_in_parts_merge_into_their_mean() {
             &[&small[..], &grids, quiet, &["--seed", seed, "-o", &out]].concat(),
         );
         assert!(ok, "{err}");
-        let told = err.contains("reference: light tracing 200000 + 100000 caustic paths");
+        // Rounded up to an even number of chunks of 65,536 (4 and 2).
+        let told = err.contains("reference: light tracing 262144 + 131072 caustic paths");
         assert_eq!((told, err.is_empty()), (seed == "2", seed == "1"), "{err}");
     }
     let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "part2.exr", "-o", "all.exr"]);
@@ -328,4 +329,48 @@ fn an_empty_region_has_no_noise_to_tell() {
         ["caustic", "0", "px", "n/a", "(no", "pixels)"]
     );
     assert!(!stdout.contains("inf"), "{stdout}");
+}
+
+/// Each half of a reference gets as many light-traced paths as the other: a count of one chunk
+/// (65,536 or fewer) is rounded up to two. With one chunk, half B had direct light only and the
+/// reference came out a fifth too dark, with no sign of it.
+#[test]
+fn both_halves_trace_paths_however_few_are_asked() {
+    use photondiff::render::film::Film;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (ok, err) = reference_cli(
+        d,
+        &[
+            "--light-paths",
+            "1",
+            "--caustic-paths",
+            "65536",
+            "--direct-grids",
+            "2,3",
+            "-o",
+            "r.exr",
+        ],
+    );
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("reference: light tracing 131072 + 131072 caustic paths"),
+        "{err}"
+    );
+    let mean = |name: &str| {
+        let film = Film::read_exr(&d.join(name)).unwrap();
+        film.pixels.iter().map(|p| p.element_sum()).sum::<f64>() / film.pixels.len() as f64
+    };
+    let (a, b) = (mean("r-a.exr"), mean("r-b.exr"));
+    // Was 0.904: the light-traced paths are a tenth of this image.
+    assert!((b / a - 1.0).abs() < 0.04, "half B / half A = {}", b / a);
+    assert_eq!(photondiff::reference::light_tracer::traced_paths(0), 0);
+    assert_eq!(
+        photondiff::reference::light_tracer::traced_paths(65536),
+        131072
+    );
+    assert_eq!(
+        photondiff::reference::light_tracer::traced_paths(131073),
+        262144
+    );
 }

@@ -24,12 +24,13 @@ pub struct ReferenceArgs {
     #[arg(short = 'o', long = "output", value_name = "OUT.exr")]
     output: PathBuf,
     /// Light paths leaving the lights in every direction (light that bounced at least once);
-    /// at most 10^11, in whole chunks of 65536.
+    /// at most 10^11, rounded up to an even number of whole chunks of 65536 (at least two: one
+    /// for each half).
     #[arg(long, value_name = "N", default_value_t = 1_000_000_000,
           value_parser = clap::value_parser!(u64).range(..=MAX_PATHS))]
     light_paths: u64,
-    /// Light paths aimed at the mirror and glass meshes (caustics); at most 10^11, in whole
-    /// chunks of 65536.
+    /// Light paths aimed at the mirror and glass meshes (caustics); at most 10^11, rounded up
+    /// as --light-paths.
     #[arg(long, value_name = "N", default_value_t = 1_000_000_000,
           value_parser = clap::value_parser!(u64).range(..=MAX_PATHS))]
     caustic_paths: u64,

@@ -141,8 +141,8 @@ pub struct RenderArgs {
     /// maps).
     #[arg(long, value_name = "BOOL", action = clap::ArgAction::Set)]
     probe_walls: Option<bool>,
-    /// Light paths traced by `--estimator lighttrace`: at most 10^11, rounded up to whole
-    /// chunks of 65536.
+    /// Light paths traced by `--estimator lighttrace`: at most 10^11, rounded up to an even
+    /// number of whole chunks of 65536 (at least two).
     #[arg(long, value_name = "N", default_value_t = 20_000_000,
           value_parser = clap::value_parser!(u64).range(..=MAX_PATHS))]
     light_paths: u64,
@@ -417,8 +417,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             .build()
             .map_err(|e| format!("cannot start worker threads: {e}"))?;
         stats.threads = pool.current_num_threads();
-        let bar = photondiff::util::progress::bar(options.progress, args.light_paths, "light");
         let tracer = LightTracer::new(&scene, &embree, &lt_options);
+        let (paths, _) = tracer.planned_paths();
+        let bar = photondiff::util::progress::bar(options.progress, paths, "light");
         let result = stats.time("render", || pool.install(|| tracer.run(&bar)));
         bar.finish_and_clear();
         let all: Vec<usize> = (0..result.film.pixels.len())

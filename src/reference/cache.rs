@@ -101,10 +101,6 @@ pub fn make(
             .with_threads(rayon::current_num_threads());
         direct.push(render(scene, embree, &[], &options, &mut Stats::default())?);
     }
-    log(&format!(
-        "reference: light tracing {} + {} caustic paths",
-        settings.light_paths, settings.caustic_paths
-    ));
     let options = LightTraceOptions {
         paths: settings.light_paths,
         caustic_paths: settings.caustic_paths,
@@ -112,12 +108,14 @@ pub fn make(
         seed: settings.seed,
         ..LightTraceOptions::default()
     };
-    let bar = crate::util::progress::bar(
-        progress,
-        settings.light_paths + settings.caustic_paths,
-        "light",
-    );
-    let traced = LightTracer::new(scene, embree, &options).run(&bar);
+    let tracer = LightTracer::new(scene, embree, &options);
+    // As many as the tracer traces: an even number of whole chunks of each set.
+    let (global, caustic) = tracer.planned_paths();
+    log(&format!(
+        "reference: light tracing {global} + {caustic} caustic paths"
+    ));
+    let bar = crate::util::progress::bar(progress, global + caustic, "light");
+    let traced = tracer.run(&bar);
     bar.finish_and_clear();
     let sum = |a: &Film, b: &Film| Film {
         width: a.width,
