@@ -37,10 +37,10 @@ fn start(dir: &Path, scene: &str, extra: &[&str]) -> Child {
         .unwrap()
 }
 
-/// Sends SIGINT to the process we started (by its id).
-fn interrupt(child: &Child) {
+/// Sends `signal` (`INT`, `TERM`) to the process we started (by its id).
+fn interrupt(child: &Child, signal: &str) {
     let status = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
+        .args([&format!("-{signal}"), &child.id().to_string()])
         .status()
         .unwrap();
     assert!(status.success());
@@ -70,11 +70,22 @@ fn run_and_interrupt(
     extra: &[&str],
     times: usize,
 ) -> (ExitStatus, String) {
+    run_and_signal(dir, scene, extra, times, "INT")
+}
+
+/// [`run_and_interrupt`] with another signal.
+fn run_and_signal(
+    dir: &Path,
+    scene: &str,
+    extra: &[&str],
+    times: usize,
+    signal: &str,
+) -> (ExitStatus, String) {
     for wait_ms in [1000, 3000, 9000] {
         let mut child = start(dir, scene, extra);
         std::thread::sleep(Duration::from_millis(wait_ms));
         for _ in 0..times {
-            interrupt(&child);
+            interrupt(&child, signal);
             std::thread::sleep(Duration::from_millis(50));
         }
         let status = wait(&mut child);
@@ -108,6 +119,26 @@ fn the_first_ctrl_c_keeps_the_passes_done() {
     );
     let film = Film::read_exr(&dir.path().join("img.exr")).unwrap();
     assert!(film.pixels.iter().all(|p| p.is_finite()));
+    assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
+}
+
+/// SIGTERM (a batch system's time limit: Slurm sends it, then SIGKILL after a grace period) is
+/// taken as Ctrl-C: the passes done are written. It used to end the process with nothing.
+#[test]
+fn a_termination_signal_keeps_the_passes_done() {
+    let dir = tempfile::tempdir().unwrap();
+    let (status, stderr) = run_and_signal(dir.path(), SCENE, &[], 1, "TERM");
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
+            .unwrap();
+    assert!(
+        json["progressive"]["passes"].as_u64().unwrap() >= 1,
+        "{json}"
+    );
+    assert_eq!(json["progressive"]["stop"], "interrupted");
+    assert!(stderr.contains("the image is the mean of the"), "{stderr}");
+    let film = Film::read_exr(&dir.path().join("img.exr")).unwrap();
     assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
 }
 
