@@ -562,6 +562,6 @@ fn status(stop: &StopRules, done: u64, elapsed: f64, noise: &NoiseEstimate, alph
         let needed = done as f64 * (now / target).powf(2.0 / alpha);
         bound((needed - done as f64).max(0.0) * per_pass);
     }
-    let left = left.map_or("? s left".to_string(), |t| format!("{t:.1} s left"));
+    let left = left.map_or("? s left".to_string(), crate::util::progress::time_left);
     format!("{left}, noise {}", noise.describe())
 }

@@ -149,8 +149,40 @@ pub fn pass_bar(visible: bool, total: Option<u64>) -> ProgressBar {
     bar
 }
 
+/// A time left, as a progress line shows it: seconds under two minutes, then minutes, hours and
+/// days, and "over a year" beyond (an unreachable `--target-noise` once showed
+/// `367399166820846980411787253405786272738312192.0 s left`).
+pub fn time_left(seconds: f64) -> String {
+    let t = seconds.max(0.0);
+    if seconds.is_nan() {
+        "? s left".into()
+    } else if t < 120.0 {
+        format!("{t:.1} s left")
+    } else if t < 7200.0 {
+        format!("{:.0} min left", t / 60.0)
+    } else if t < 2.0 * 86400.0 {
+        format!("{:.1} h left", t / 3600.0)
+    } else if t < 365.0 * 86400.0 {
+        format!("{:.0} days left", t / 86400.0)
+    } else {
+        "over a year left".into()
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn times_left_read_in_their_unit() {
+        assert_eq!(time_left(4.04), "4.0 s left");
+        assert_eq!(time_left(-1.0), "0.0 s left");
+        assert_eq!(time_left(f64::NAN), "? s left");
+        assert_eq!(time_left(600.0), "10 min left");
+        assert_eq!(time_left(3.0 * 3600.0), "3.0 h left");
+        assert_eq!(time_left(10.0 * 86400.0), "10 days left");
+        assert_eq!(time_left(3.7e44), "over a year left");
+        assert_eq!(time_left(f64::INFINITY), "over a year left");
+    }
+
     use super::*;
     use std::sync::Arc;
 
