@@ -269,6 +269,9 @@ fn broken_ascii_ply_files_name_the_element_and_line() {
         (h.replace("list uchar int", "list uchar float"), "cannot parse PLY: face property 'vertex_indices' must be a list of integers, got a list of float"),
         (h.replace("property float z", "property quad z"), "cannot parse PLY: header line 6: unknown property type 'quad'"),
         (h.replace("end_header\n", ""), "cannot parse PLY: header line 9: the header has no end_header line"),
+        // A header past 1 MiB (100,000 comments before end_header) says so, not that it has no end.
+        (h.replace("end_header\n", &format!("{}end_header\n", "comment 0123456789\n".repeat(100_000))),
+         "cannot parse PLY: header line 55189: the header is over 1 MiB without an end_header line (a header that long is not read)"),
         ("this is not a ply file\n".into(), "cannot parse PLY: header line 1: not a PLY file (the first line is not 'ply')"),
     ];
     for (ply, message) in &cases {

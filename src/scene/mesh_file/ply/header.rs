@@ -159,7 +159,14 @@ pub fn read(reader: &mut impl BufRead) -> Result<Header, String> {
             .map_err(|e| format!("cannot read: {e}"))?;
         length += n as u64;
         let at = |e: String| format!("cannot parse PLY: header line {number}: {e}");
-        if n == 0 || length > MAX_HEADER_BYTES {
+        if length > MAX_HEADER_BYTES {
+            return Err(at(format!(
+                "the header is over {} MiB without an end_header line (a header that long is \
+                 not read)",
+                MAX_HEADER_BYTES >> 20
+            )));
+        }
+        if n == 0 {
             return Err(at("the header has no end_header line".into()));
         }
         let bytes = if number == 1 {
