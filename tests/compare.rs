@@ -397,6 +397,18 @@ fn report_refuses_non_finite_images_and_exposures() {
             )
         );
     }
+    // A chart is shown as an image: a scene file given as one is refused (it was copied and
+    // showed as a broken image).
+    let toml = d.path().join("scene.toml");
+    std::fs::write(&toml, "[camera]\n").unwrap();
+    let chart = toml.to_str().unwrap();
+    assert_eq!(
+        stderr(&report(&["--chart", chart], &r)),
+        format!(
+            "photondiff: error: {}: a chart must be an SVG or PNG file (.svg, .png)\n",
+            toml.display()
+        )
+    );
     assert!(!out.exists());
 }
 

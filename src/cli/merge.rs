@@ -57,8 +57,9 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
         photondiff::util::atomic::write_bytes(path, json.as_bytes())?;
     }
     println!(
-        "merged {} parts into {} and {}",
+        "merged {} part{} into {} and {}",
         parts.len(),
+        if parts.len() == 1 { "" } else { "s" },
         args.output.display(),
         png.display()
     );

@@ -173,6 +173,16 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
         .map(|p| Table::read(p))
         .collect::<Result<Vec<_>, _>>()?;
     for c in &args.charts {
+        // The page shows a chart as an image: a browser draws SVG and PNG, not a .toml.
+        let ext = c
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if !matches!(ext.as_deref(), Some("svg" | "png")) {
+            return Err(format!(
+                "{}: a chart must be an SVG or PNG file (.svg, .png)",
+                c.display()
+            ));
+        }
         std::fs::metadata(c).map_err(|e| format!("{}: cannot open: {e}", c.display()))?;
     }
     let mut notes = vec![format!("Reference: {}.", args.reference.display())];
