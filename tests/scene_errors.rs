@@ -312,14 +312,53 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
     let scene_path = scene.display().to_string();
     let cases: Vec<(Vec<String>, String)> = vec![
         (
-            vec!["render".into(), scene_path.clone(), "-o".into(), scene_path.clone()],
+            vec![
+                "render".into(),
+                scene_path.clone(),
+                "-o".into(),
+                scene_path.clone(),
+            ],
             format!("-o names the scene ({scene_path}): the run would overwrite it"),
         ),
         (
-            vec!["render".into(), scene_path.clone(), "-o".into(), at("x.png")],
+            vec![
+                "render".into(),
+                scene_path.clone(),
+                "-o".into(),
+                at("x.png"),
+            ],
             format!(
-                "the PNG preview (-o with .png) and -o name the same file ({}): each output needs its own",
+                "-o {}: the image is written as OpenEXR; give it a .exr name (the PNG preview \
+                 goes to --png)",
                 at("x.png")
+            ),
+        ),
+        (
+            vec![
+                "render".into(),
+                scene_path.clone(),
+                "-o".into(),
+                at("x.exr"),
+                "--png".into(),
+                at("y.exr"),
+            ],
+            format!(
+                "--png {}: the preview is written as PNG; give it a .png name",
+                at("y.exr")
+            ),
+        ),
+        (
+            vec![
+                "merge".into(),
+                at("p0.exr"),
+                "-o".into(),
+                at("m.exr"),
+                "--png".into(),
+                at("m.EXR"),
+            ],
+            format!(
+                "--png {}: the preview is written as PNG; give it a .png name",
+                at("m.EXR")
             ),
         ),
         (
@@ -337,11 +376,22 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
             ),
         ),
         (
-            vec!["photons".into(), scene_path.clone(), "-o".into(), scene_path.clone()],
+            vec![
+                "photons".into(),
+                scene_path.clone(),
+                "-o".into(),
+                scene_path.clone(),
+            ],
             format!("-o names the scene ({scene_path}): the run would overwrite it"),
         ),
         (
-            vec!["merge".into(), at("p0.exr"), at("p1.exr"), "-o".into(), at("p1.exr")],
+            vec![
+                "merge".into(),
+                at("p0.exr"),
+                at("p1.exr"),
+                "-o".into(),
+                at("p1.exr"),
+            ],
             format!(
                 "-o names the part being merged ({}): the run would overwrite it",
                 at("p1.exr")

@@ -28,6 +28,7 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
         .png
         .clone()
         .unwrap_or_else(|| args.output.with_extension("png"));
+    super::check_image_names(&args.output, &png)?;
     let png_flag = if args.png.is_some() {
         "--png"
     } else {

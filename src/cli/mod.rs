@@ -111,6 +111,30 @@ fn resolved(path: &Path) -> PathBuf {
     }
 }
 
+/// Refuses an image name whose extension says the other format: the EXR (`-o`) named `.png`
+/// or the PNG preview (`--png`) named `.exr` (the file would hold the other format's bytes
+/// under a name that promises this one).
+pub fn check_image_names(exr: &Path, png: &Path) -> Result<(), String> {
+    let ext = |p: &Path| {
+        p.extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase())
+    };
+    if ext(exr).as_deref() == Some("png") {
+        return Err(format!(
+            "-o {}: the image is written as OpenEXR; give it a .exr name (the PNG preview goes \
+             to --png)",
+            exr.display()
+        ));
+    }
+    if ext(png).as_deref() == Some("exr") {
+        return Err(format!(
+            "--png {}: the preview is written as PNG; give it a .png name",
+            png.display()
+        ));
+    }
+    Ok(())
+}
+
 /// Refuses, before any work, outputs that would land on one another or on an input: each
 /// output, named by its option (`("-o", path)`), must be a file of its own, and none may be
 /// one of `inputs` (the scene, parts being merged), which the run would otherwise overwrite

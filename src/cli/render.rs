@@ -248,6 +248,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         });
     }
     let (exr, png) = output_paths(args);
+    super::check_image_names(&exr, &png)?;
     let png_flag = if args.png.is_some() {
         "--png"
     } else {
