@@ -328,7 +328,9 @@ impl<'a> PhotonTracer<'a> {
         };
         let mut traced: Vec<TracedPhoton> = Vec::new();
         let mut counts = TraceCounts::default();
-        if target > 0 && !emitter.is_empty() {
+        // Photons land only on diffuse surfaces: without one (a closed room of mirrors) every
+        // emission would bounce to the cap and store nothing (minutes for a black image).
+        if target > 0 && !emitter.is_empty() && self.scene.has_diffuse_surface() {
             while counts.emitted < max_emissions {
                 let start = counts.emitted;
                 let end = (start + BATCH).min(max_emissions);

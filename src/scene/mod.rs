@@ -239,6 +239,14 @@ impl Scene {
             .sum()
     }
 
+    /// Whether some shape is diffuse: the only surfaces photons are stored on and that reflect
+    /// light towards the camera from the photon maps and direct light.
+    pub fn has_diffuse_surface(&self) -> bool {
+        self.meshes
+            .iter()
+            .any(|m| matches!(m.material, Material::Diffuse { .. }))
+    }
+
     /// Bytes of the mesh buffers (shared with the Embree scene; each mesh once).
     pub fn mesh_bytes(&self) -> u64 {
         self.unique_meshes().iter().map(|m| m.bytes()).sum()

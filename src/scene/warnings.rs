@@ -29,6 +29,13 @@ pub fn warnings(scene: &Scene) -> Vec<String> {
             "the scene has no shapes: light falls on nothing and the image will be black".into(),
         );
     }
+    if surfaces > 0 && !scene.has_diffuse_surface() {
+        out.push(
+            "no shape is diffuse: light lands on nothing that scatters it, no photon is stored, \
+             and the image shows only the lights, directly or through mirrors and glass"
+                .into(),
+        );
+    }
     if surfaces > 0 {
         out.extend(view_warning(scene));
     }
