@@ -108,6 +108,31 @@ fn the_global_map_holds_the_photons_asked_for_or_says_why_not() {
             dir.path().join("scene.toml").display()
         )
     );
+    // Over passes the counts are totals, and the warning says so.
+    let out = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args([
+            "render",
+            "--quiet",
+            "--passes",
+            "2",
+            "--photons",
+            "2000",
+            "--threads",
+            "1",
+        ])
+        .args(["--caustic-photons", "100", "-o"])
+        .arg(dir.path().join("two.exr"))
+        .arg(dir.path().join("scene.toml"))
+        .output()
+        .unwrap();
+    let two = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        two.contains("global map: 0 of 4000 photons stored: ")
+            && two
+                .trim_end()
+                .ends_with("this scene rarely stores such photons (totals over 2 passes)"),
+        "{two}"
+    );
     // The render completed with the floor's direct light, and nothing is NaN.
     assert!(film.pixels.iter().all(|p| p.is_finite()));
     assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));

@@ -731,12 +731,19 @@ pub(crate) fn warn_shortfalls(
         PathClass::Caustic => caustic_given,
         _ => global_given,
     };
+    // The counts are totals over the passes: said so, as the user asked for a pass's worth.
+    let passes = stats.progressive.as_ref().map_or(1, |p| p.passes);
+    let over = if passes > 1 {
+        format!(" (totals over {passes} passes)")
+    } else {
+        String::new()
+    };
     let mut told = Vec::new();
     for m in &stats.photon_maps {
         if let Some(message) = m.shortfall().filter(|_| given(m.class)) {
             if !told.contains(&m.class) {
                 told.push(m.class);
-                eprintln!("photondiff: warning: {}: {message}", scene.display());
+                eprintln!("photondiff: warning: {}: {message}{over}", scene.display());
             }
         }
     }
