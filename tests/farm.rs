@@ -420,6 +420,11 @@ fn pass_ranges_and_tiles_merge_into_the_single_process_image_bit_for_bit() {
             &["--pass-range", "0..1"][..],
             "--pass-range needs --passes N (the whole render's passes) and neither --time-budget nor --target-noise",
         ),
+        // Maps from a file are pass 0's: a range without pass 0 would ignore them.
+        (
+            &["--passes", "4", "--pass-range", "1..3", "--photon-maps", "maps.pdm"][..],
+            "--photon-maps holds pass 0's photons, which --pass-range 1..3 does not render (passes count from 0; the other passes trace their own)",
+        ),
     ] {
         let mut args = vec!["render", s(&scene), "-o", s(&bad)];
         args.extend(extra);

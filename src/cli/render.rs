@@ -365,6 +365,16 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             );
         }
     }
+    if let (Some(_), Some(range)) = (&args.photon_maps, &pass_range) {
+        // The file holds pass 0's photons; later passes trace their own.
+        if range.start > 0 {
+            return Err(format!(
+                "--photon-maps holds pass 0's photons, which --pass-range {}..{} does not \
+                 render (passes count from 0; the other passes trace their own)",
+                range.start, range.end
+            ));
+        }
+    }
     if args.photon_maps.is_some()
         && matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace)
     {
