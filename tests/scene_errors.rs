@@ -789,3 +789,53 @@ fn a_scene_without_a_diffuse_surface_traces_no_photons() {
           the image shows only the lights, directly or through mirrors and glass"]
     );
 }
+
+/// An estimator's own option given to another estimator is an error: `--estimator jensen
+/// --ms-grid 4` rendered as if `--ms-grid` had not been given.
+#[test]
+fn an_option_of_another_estimator_is_refused() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        with_shape(
+            "type = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\nmaterial = \"white\"",
+        ),
+    )
+    .unwrap();
+    let out = dir.path().join("o.exr");
+    for (args, message) in [
+        (
+            &["--estimator", "jensen", "--ms-grid", "4"][..],
+            "--ms-grid applies to --estimator multisampled only",
+        ),
+        (&["--k", "4"][..], "--k applies to --estimator jensen only"),
+        (
+            &["--estimator", "pd", "--coplanar-vertices", "8"][..],
+            "--coplanar-vertices applies to --estimator coplanar only",
+        ),
+    ] {
+        let run = Command::new(exe)
+            .arg("render")
+            .arg(&scene)
+            .arg("-o")
+            .arg(&out)
+            .args(args)
+            .output()
+            .unwrap();
+        assert_eq!(run.status.code(), Some(1), "{args:?}");
+        assert_eq!(
+            String::from_utf8_lossy(&run.stderr),
+            format!("photondiff: error: {message}\n")
+        );
+    }
+    assert!(!out.exists());
+    // Given to their own estimator, they render.
+    let (json, _) = render_file(
+        &scene,
+        &dir.path().join("ms"),
+        &["--quiet", "--estimator", "multisampled", "--ms-grid", "4"],
+    );
+    assert_eq!(json["progressive"]["passes"], 1);
+}

@@ -22,6 +22,11 @@ use std::path::{Path, PathBuf};
 /// The longest `--time-budget` taken, in seconds: 365 days.
 const MAX_TIME_BUDGET: f64 = 31_536_000.0;
 
+/// `--k`, `--ms-grid` and `--coplanar-vertices` when not given.
+const DEFAULT_K: u32 = 50;
+const DEFAULT_MS_GRID: u32 = 8;
+const DEFAULT_COPLANAR_VERTICES: u32 = 16;
+
 /// The most mirror/glass bounces a camera path may take (`--max-depth`). Each bounce is a level
 /// of recursion on a worker thread's stack (about 1.4 KB a level: 1,500 overflowed the default
 /// 2 MiB stack and aborted the process); 256 leaves a wide margin, and a path whose weight falls
@@ -111,15 +116,17 @@ pub struct RenderArgs {
     /// rays, caustics and two gather rays of its own at the hit. 0 never; at most 1000.
     #[arg(long, value_name = "R", default_value_t = NEAR_REACH)]
     gather_near: f64,
-    /// Nearest photons per regular (jensen) estimate.
-    #[arg(long, value_name = "N", default_value_t = 50, value_parser = clap::value_parser!(u32).range(1..=10_000))]
-    k: u32,
-    /// Sample grid side N of the multisampled estimate (N x N points per view footprint).
-    #[arg(long, value_name = "N", default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=32))]
-    ms_grid: u32,
-    /// Vertices of the polygon standing for a photon's elliptical footprint (coplanar).
-    #[arg(long, value_name = "N", default_value_t = 16, value_parser = clap::value_parser!(u32).range(3..=1024))]
-    coplanar_vertices: u32,
+    /// Nearest photons per regular (jensen) estimate [default: 50]; `--estimator jensen` only.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=10_000))]
+    k: Option<u32>,
+    /// Sample grid side N of the multisampled estimate (N x N points per view footprint)
+    /// [default: 8]; `--estimator multisampled` only.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=32))]
+    ms_grid: Option<u32>,
+    /// Vertices of the polygon standing for a photon's elliptical footprint [default: 16];
+    /// `--estimator coplanar` only.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(3..=1024))]
+    coplanar_vertices: Option<u32>,
     /// Photon footprint size, as the expected number of footprints covering a point.
     #[arg(long, value_name = "X", default_value_t = 32.0)]
     overlap: f64,
@@ -375,6 +382,27 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             ));
         }
     }
+    // An estimator's own option given to another was ignored without a word.
+    for (given, option, owner) in [
+        (args.k.is_some(), "--k", EstimatorKind::Jensen),
+        (
+            args.ms_grid.is_some(),
+            "--ms-grid",
+            EstimatorKind::Multisampled,
+        ),
+        (
+            args.coplanar_vertices.is_some(),
+            "--coplanar-vertices",
+            EstimatorKind::Coplanar,
+        ),
+    ] {
+        if given && kind != owner {
+            return Err(format!(
+                "{option} applies to --estimator {} only",
+                estimator_name(owner)
+            ));
+        }
+    }
     if args.photon_maps.is_some()
         && matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace)
     {
@@ -408,10 +436,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     let settings = EstimatorSettings {
         kind,
-        k: args.k as usize,
+        k: args.k.unwrap_or(DEFAULT_K) as usize,
         max_radius: photon_options.limits(&scene).max_radius,
-        ms_grid: args.ms_grid,
-        ellipse_vertices: args.coplanar_vertices as usize,
+        ms_grid: args.ms_grid.unwrap_or(DEFAULT_MS_GRID),
+        ellipse_vertices: args.coplanar_vertices.unwrap_or(DEFAULT_COPLANAR_VERTICES) as usize,
         gather_rays: args.gather_rays,
         gather_near: args.gather_near,
     };
@@ -512,7 +540,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             "photondiff/caustic_photons".to_string(),
             photon_options.caustic_photons.to_string(),
         ),
-        ("photondiff/k".to_string(), args.k.to_string()),
+        ("photondiff/k".to_string(), settings.k.to_string()),
         (
             "photondiff/gather_rays".to_string(),
             args.gather_rays.to_string(),
@@ -521,10 +549,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             "photondiff/gather_near".to_string(),
             args.gather_near.to_string(),
         ),
-        ("photondiff/ms_grid".to_string(), args.ms_grid.to_string()),
+        (
+            "photondiff/ms_grid".to_string(),
+            settings.ms_grid.to_string(),
+        ),
         (
             "photondiff/coplanar_vertices".to_string(),
-            args.coplanar_vertices.to_string(),
+            settings.ellipse_vertices.to_string(),
         ),
         ("photondiff/overlap".to_string(), args.overlap.to_string()),
         (
@@ -630,6 +661,13 @@ fn stop_on_ctrl_c(first: &'static str) {
         }
         eprintln!("\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)");
     });
+}
+
+/// An estimator's name as `--estimator` takes it.
+fn estimator_name(kind: EstimatorKind) -> String {
+    use clap::ValueEnum;
+    kind.to_possible_value()
+        .map_or_else(|| format!("{kind:?}"), |v| v.get_name().to_string())
 }
 
 /// The estimator asked for, `integrated` by default.
