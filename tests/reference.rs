@@ -228,6 +228,46 @@ fn references_made_in_parts_merge_into_their_mean() {
             assert!((*m - mean).abs().max_element() <= 1e-6 * mean.max_element().max(1e-30));
         }
     }
+    // Tracing settings say nothing to a merge: given with it, they are refused (they were
+    // ignored), and --direct-grids twice is refused (its values were appended).
+    for extra in [
+        ["--light-paths", "5"],
+        ["--seed", "4"],
+        ["--direct-grids", "2,4"],
+    ] {
+        let (ok, err) = reference_cli(
+            d,
+            &[
+                &["--merge", "part1.exr", "part2.exr", "-o", "x.exr"][..],
+                &extra,
+            ]
+            .concat(),
+        );
+        assert!(!ok);
+        assert!(
+            err.starts_with(&format!(
+                "error: the argument '--merge <PART.exr>...' cannot be used with '{}",
+                extra[0]
+            )),
+            "{err}"
+        );
+    }
+    let (ok, err) = reference_cli(
+        d,
+        &[
+            "--direct-grids",
+            "2,3",
+            "--direct-grids",
+            "4,5",
+            "-o",
+            "x.exr",
+        ],
+    );
+    assert!(!ok);
+    assert!(
+        err.starts_with("error: the argument '--direct-grids <A,B>' cannot be used multiple times"),
+        "{err}"
+    );
     // The same seed twice would count the same paths twice.
     let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "part1.exr", "-o", "x.exr"]);
     assert!(!ok);

@@ -26,16 +26,17 @@ pub struct ReferenceArgs {
     /// Light paths leaving the lights in every direction (light that bounced at least once);
     /// at most 10^11, rounded up to an even number of whole chunks of 65536 (at least two: one
     /// for each half).
-    #[arg(long, value_name = "N", default_value_t = 1_000_000_000,
+    #[arg(long, value_name = "N", default_value_t = 1_000_000_000, conflicts_with = "merge",
           value_parser = clap::value_parser!(u64).range(..=MAX_PATHS))]
     light_paths: u64,
     /// Light paths aimed at the mirror and glass meshes (caustics); at most 10^11, rounded up
     /// as --light-paths.
-    #[arg(long, value_name = "N", default_value_t = 1_000_000_000,
+    #[arg(long, value_name = "N", default_value_t = 1_000_000_000, conflicts_with = "merge",
           value_parser = clap::value_parser!(u64).range(..=MAX_PATHS))]
     caustic_paths: u64,
     /// Camera rays per pixel along each axis for the direct light of half A and half B.
-    #[arg(long, value_name = "A,B", value_delimiter = ',', default_values_t = [16, 17])]
+    #[arg(long, value_name = "A,B", value_delimiter = ',', default_values_t = [16, 17],
+          conflicts_with = "merge", action = clap::ArgAction::Set)]
     direct_grids: Vec<u32>,
     /// Worker threads (0 = one per core; at most 1024).
     #[arg(long, value_name = "N", default_value_t = 0)]
@@ -43,7 +44,7 @@ pub struct ReferenceArgs {
     /// Seed of the light paths. References of one scene made with the same settings and
     /// different seeds are independent, and `--merge` averages them into one with their paths
     /// summed: a long reference made in parts, on several machines or over several days.
-    #[arg(long, value_name = "S", default_value_t = 0)]
+    #[arg(long, value_name = "S", default_value_t = 0, conflicts_with = "merge")]
     seed: u64,
     /// Instead of tracing, write the mean of these references (each with its -a and -b halves
     /// beside it), which must have been made with the same settings and different seeds.
