@@ -397,6 +397,12 @@ fn report_refuses_non_finite_images_and_exposures() {
             )
         );
     }
+    // Two renders of one caption could not be told apart on the page.
+    let same = format!("a={}", r.display());
+    assert_eq!(
+        stderr(&report(&[same.as_str()], Path::new(&same))),
+        "photondiff: error: two renders are captioned 'a': caption them apart (LABEL=FILE.exr)\n"
+    );
     // A chart is shown as an image: a scene file given as one is refused (it was copied and
     // showed as a broken image).
     let toml = d.path().join("scene.toml");

@@ -139,6 +139,12 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
     let mut renders = Vec::new();
     for arg in &args.renders {
         let (label, path) = parse_render(arg);
+        // Two views of one caption could not be told apart on the page.
+        if renders.iter().any(|r: &Render| r.label == label) {
+            return Err(format!(
+                "two renders are captioned '{label}': caption them apart (LABEL=FILE.exr)"
+            ));
+        }
         let film = read_finite(&path)?;
         if (film.width, film.height) != (reference.width, reference.height) {
             return Err(format!(
