@@ -48,6 +48,14 @@ fn with_shape(shape: &str) -> String {
     format!("{CAMERA}{REST}\n[[shapes]]\n{shape}\n")
 }
 
+/// Writes a scene of one white ball of radius 1 into `dir`; its path.
+fn sphere_scene(dir: &Path) -> std::path::PathBuf {
+    let scene = dir.join("scene.toml");
+    let ball = "type = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\nmaterial = \"white\"";
+    std::fs::write(&scene, with_shape(ball)).unwrap();
+    scene
+}
+
 #[test]
 fn unknown_keys_are_named_with_their_line() {
     let e = error_of(&format!("{CAMERA}fov = 3\n{REST}"), &[]);
@@ -478,14 +486,7 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
     use std::io::{BufRead, BufReader};
     let exe = env!("CARGO_BIN_EXE_photondiff");
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(
-        &scene,
-        with_shape(
-            "type = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\nmaterial = \"white\"",
-        ),
-    )
-    .unwrap();
+    let scene = sphere_scene(dir.path());
     let out = dir.path().join("maps.bin");
     for flag in ["--photons", "--caustic-photons"] {
         let run = Command::new(exe)
@@ -796,14 +797,7 @@ fn a_scene_without_a_diffuse_surface_traces_no_photons() {
 fn an_option_of_another_estimator_is_refused() {
     let exe = env!("CARGO_BIN_EXE_photondiff");
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(
-        &scene,
-        with_shape(
-            "type = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\nmaterial = \"white\"",
-        ),
-    )
-    .unwrap();
+    let scene = sphere_scene(dir.path());
     let out = dir.path().join("o.exr");
     for (args, message) in [
         (

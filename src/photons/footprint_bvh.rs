@@ -72,6 +72,15 @@ impl Aabb {
         max: Vec3::NEG_INFINITY,
     };
 
+    /// The box of centre `c` and half-extents `h`.
+    pub fn centred(c: [f32; 3], h: [f32; 3]) -> Aabb {
+        let (c, h) = (Vec3::from(c), Vec3::from(h));
+        Aabb {
+            min: c - h,
+            max: c + h,
+        }
+    }
+
     /// The smallest box holding both.
     #[inline]
     pub fn union(&self, other: &Aabb) -> Aabb {
@@ -408,11 +417,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn aabb(c: [f32; 3], h: [f32; 3]) -> Aabb {
-        let (c, h) = (Vec3::from(c), Vec3::from(h));
-        Aabb {
-            min: c - h,
-            max: c + h,
-        }
+        Aabb::centred(c, h)
     }
 
     fn brute(boxes: &[Aabb], q: &Aabb) -> Vec<u32> {

@@ -90,15 +90,10 @@ impl Prism {
 mod tests {
     use super::*;
     use crate::photons::footprint_bvh::{Aabb, FootprintBvh};
-    use glam::Vec3;
     use proptest::prelude::*;
 
     fn aabb(c: [f32; 3], h: [f32; 3]) -> Aabb {
-        let (c, h) = (Vec3::from(c), Vec3::from(h));
-        Aabb {
-            min: c - h,
-            max: c + h,
-        }
+        Aabb::centred(c, h)
     }
 
     proptest! {
