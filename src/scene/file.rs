@@ -183,6 +183,18 @@ fn parallelogram(field: &str, corner: Vec3, u: Vec3, v: Vec3) -> Result<[DVec3; 
             "{field}: edge_u and edge_v must be non-zero and not parallel"
         ));
     }
+    // Embree takes single precision: corners that round together make no surface (a light of
+    // edges 1e-30 was an 'invalid mesh' with a degenerate triangle).
+    let (p0, p1, p2) = (c.as_vec3(), (c + u).as_vec3(), (c + v).as_vec3());
+    if (p1 - p0).cross(p2 - p0) == glam::Vec3::ZERO {
+        return Err(format!(
+            "{field}: too small for single precision where it stands (edges {:.3e} and {:.3e} \
+             long, {:.3e} from the origin): its corners round together",
+            u.length(),
+            v.length(),
+            c.length()
+        ));
+    }
     Ok([c, u, v])
 }
 
