@@ -135,15 +135,7 @@ fn progressive(
         time_budget: Some(Duration::from_secs_f64(last)),
         ..StopRules::default()
     };
-    let estimator = EstimatorSettings {
-        kind,
-        k: 50,
-        max_radius: photons.limits(scene).max_radius,
-        ms_grid: 8,
-        ellipse_vertices: 16,
-        gather_rays: 0,
-        gather_near: 0.0,
-    };
+    let estimator = EstimatorSettings::new(kind, photons.limits(scene).max_radius);
     let run = Progressive {
         scene,
         embree,

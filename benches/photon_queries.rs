@@ -61,15 +61,7 @@ fn main() {
             })
             .fold(f64::INFINITY, f64::min);
         for (k, (name, kind)) in kinds.iter().enumerate() {
-            let settings = EstimatorSettings {
-                kind: *kind,
-                k: 50,
-                max_radius: options.limits(&scene).max_radius,
-                ms_grid: 8,
-                ellipse_vertices: 16,
-                gather_rays: 0,
-                gather_near: 0.0,
-            };
+            let settings = EstimatorSettings::new(*kind, options.limits(&scene).max_radius);
             let estimators = maps.estimators(&settings);
             let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
             let mut render_stats = Stats::default();

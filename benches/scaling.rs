@@ -163,15 +163,8 @@ fn photons_sweep() {
         let c = &maps.caustic;
         let (build, _) =
             seconds(|| PhotonMap::new(c.class, c.photons.clone(), c.emitted, c.guards));
-        let settings = EstimatorSettings {
-            kind: EstimatorKind::Integrated,
-            k: 50,
-            max_radius: options.limits(&scene).max_radius,
-            ms_grid: 8,
-            ellipse_vertices: 16,
-            gather_rays: 0,
-            gather_near: 0.0,
-        };
+        let settings =
+            EstimatorSettings::new(EstimatorKind::Integrated, options.limits(&scene).max_radius);
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
         let mut render_stats = Stats::default();

@@ -346,13 +346,8 @@ fn a_progressive_run_finds_its_edge_pixels_once() {
         embree: &embree,
         photons: photons.clone(),
         estimator: EstimatorSettings {
-            kind: EstimatorKind::Direct,
-            k: 50,
-            max_radius: photons.limits(&scene).max_radius,
             ms_grid: 4,
-            ellipse_vertices: 16,
-            gather_rays: 0,
-            gather_near: 0.0,
+            ..EstimatorSettings::new(EstimatorKind::Direct, photons.limits(&scene).max_radius)
         },
         render: RenderOptions::default().with_edge_grid(4).with_threads(2),
         alpha: DEFAULT_ALPHA,

@@ -376,13 +376,8 @@ fn the_image_is_multisampling_in_the_limit() {
     let maps = trace_photon_maps(&scene, &embree, &options, 0, false, &mut stats).unwrap();
     let image = |kind, ms_grid| {
         let settings = EstimatorSettings {
-            kind,
-            k: 50,
-            max_radius: options.limits(&scene).max_radius,
             ms_grid,
-            ellipse_vertices: 16,
-            gather_rays: 0,
-            gather_near: 0.0,
+            ..EstimatorSettings::new(kind, options.limits(&scene).max_radius)
         };
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();

@@ -29,13 +29,8 @@ fn canonical(width: u32, height: u32) -> Scene {
 
 fn settings(kind: EstimatorKind, scene: &Scene, photons: &PhotonOptions) -> EstimatorSettings {
     EstimatorSettings {
-        kind,
-        k: 50,
-        max_radius: photons.limits(scene).max_radius,
         ms_grid: 4,
-        ellipse_vertices: 16,
-        gather_rays: 0,
-        gather_near: 0.0,
+        ..EstimatorSettings::new(kind, photons.limits(scene).max_radius)
     }
 }
 

@@ -235,15 +235,7 @@ fn no_estimator_produces_nan_infinite_or_negative_radiance() {
         EstimatorKind::Multisampled,
         EstimatorKind::Integrated,
     ] {
-        let settings = EstimatorSettings {
-            kind,
-            k: 50,
-            max_radius: options.limits(&scene).max_radius,
-            ms_grid: 8,
-            ellipse_vertices: 16,
-            gather_rays: 0,
-            gather_near: 0.0,
-        };
+        let settings = EstimatorSettings::new(kind, options.limits(&scene).max_radius);
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
         for grid in [1, 2] {

@@ -22,11 +22,6 @@ use std::path::{Path, PathBuf};
 /// The longest `--time-budget` taken, in seconds: 365 days.
 const MAX_TIME_BUDGET: f64 = 31_536_000.0;
 
-/// `--k`, `--ms-grid` and `--coplanar-vertices` when not given.
-const DEFAULT_K: u32 = 50;
-const DEFAULT_MS_GRID: u32 = 8;
-const DEFAULT_COPLANAR_VERTICES: u32 = 16;
-
 /// The most mirror/glass bounces a camera path may take (`--max-depth`). Each bounce is a level
 /// of recursion on a worker thread's stack (about 1.4 KB a level: 1,500 overflowed the default
 /// 2 MiB stack and aborted the process); 256 leaves a wide margin, and a path whose weight falls
@@ -358,11 +353,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         if matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace) {
             return Err(format!(
                 "--gather-rays needs photon maps: --estimator {} has none",
-                if kind == EstimatorKind::Direct {
-                    "direct"
-                } else {
-                    "lighttrace"
-                }
+                estimator_name(kind)
             ));
         }
         if args.photon_maps.is_some() {
@@ -409,11 +400,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         // It was read by neither, without a word.
         return Err(format!(
             "--photon-maps does not apply to --estimator {} (it uses no photon maps)",
-            if kind == EstimatorKind::Direct {
-                "direct"
-            } else {
-                "lighttrace"
-            }
+            estimator_name(kind)
         ));
     }
     if !(args.overlap.is_finite() && args.overlap > 0.0) {
@@ -436,10 +423,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     let settings = EstimatorSettings {
         kind,
-        k: args.k.unwrap_or(DEFAULT_K) as usize,
+        k: args.k.map_or(EstimatorSettings::DEFAULT_K, |k| k as usize),
         max_radius: photon_options.limits(&scene).max_radius,
-        ms_grid: args.ms_grid.unwrap_or(DEFAULT_MS_GRID),
-        ellipse_vertices: args.coplanar_vertices.unwrap_or(DEFAULT_COPLANAR_VERTICES) as usize,
+        ms_grid: args.ms_grid.unwrap_or(EstimatorSettings::DEFAULT_MS_GRID),
+        ellipse_vertices: args
+            .coplanar_vertices
+            .map_or(EstimatorSettings::DEFAULT_ELLIPSE_VERTICES, |n| n as usize),
         gather_rays: args.gather_rays,
         gather_near: args.gather_near,
     };

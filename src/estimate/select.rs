@@ -53,6 +53,29 @@ pub struct EstimatorSettings {
     pub gather_near: f64,
 }
 
+impl EstimatorSettings {
+    /// `jensen`'s nearest photons when not given (`--k`).
+    pub const DEFAULT_K: usize = 50;
+    /// `multisampled`'s grid side when not given (`--ms-grid`).
+    pub const DEFAULT_MS_GRID: u32 = 8;
+    /// `coplanar`'s polygon vertices when not given (`--coplanar-vertices`).
+    pub const DEFAULT_ELLIPSE_VERTICES: usize = 16;
+
+    /// Estimate `kind` with every estimator's default and no final gathering; `max_radius`
+    /// is the photon maps' largest footprint radius (`PhotonOptions::limits`).
+    pub fn new(kind: EstimatorKind, max_radius: f64) -> Self {
+        EstimatorSettings {
+            kind,
+            k: Self::DEFAULT_K,
+            max_radius,
+            ms_grid: Self::DEFAULT_MS_GRID,
+            ellipse_vertices: Self::DEFAULT_ELLIPSE_VERTICES,
+            gather_rays: 0,
+            gather_near: 0.0,
+        }
+    }
+}
+
 /// What final gathering traces its rays through, besides the maps.
 #[derive(Clone, Copy)]
 pub struct GatherScene<'a> {

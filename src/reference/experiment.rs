@@ -131,13 +131,8 @@ impl Method {
         threads: usize,
     ) -> Result<(Film, f64), String> {
         let settings = EstimatorSettings {
-            kind: self.kind,
-            k: 50,
-            max_radius: photon_options.limits(scene).max_radius,
             ms_grid: self.ms_grid,
-            ellipse_vertices: 16,
-            gather_rays: 0,
-            gather_near: 0.0,
+            ..EstimatorSettings::new(self.kind, photon_options.limits(scene).max_radius)
         };
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
