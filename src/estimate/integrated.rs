@@ -92,12 +92,16 @@ pub fn parallelogram_means_scalar(batch: &ParallelogramBatch, out: &mut Vec<f64>
 #[derive(Default)]
 struct Scratch {
     found: Vec<u32>,
-    general: Vec<u32>,
+    /// The parallelograms of `batch`: (query, photon) each.
+    general: Vec<(u32, u32)>,
     batch: ParallelogramBatch,
     means: Vec<f64>,
-    general_quads: Vec<u32>,
+    /// The quadrilaterals of `quads`: (query, photon) each.
+    general_quads: Vec<(u32, u32)>,
     quads: QuadBatch,
     quad_means: Vec<f64>,
+    /// Per query of a batch, the sum of `Phi / A * mean` over its photons.
+    totals: Vec<Vec3>,
 }
 
 thread_local! {
@@ -108,6 +112,90 @@ thread_local! {
 pub struct IntegratedEstimate<'a> {
     /// The map.
     pub map: &'a PhotonMap,
+}
+
+impl IntegratedEstimate<'_> {
+    /// Gathers query `q` (number `j` of its batch): the photons settled in closed form are
+    /// summed and returned; those that need the general formula join the scratch's batches,
+    /// owned by `j`.
+    fn gather(
+        &self,
+        q: &GatherQuery,
+        j: u32,
+        scratch: &mut Scratch,
+        counts: &mut GatherCounts,
+    ) -> Vec3 {
+        counts.gathers += 1;
+        let f = if q.footprint[0].is_finite() && q.footprint[1].is_finite() {
+            q.footprint
+        } else {
+            [DVec3::ZERO; 2]
+        };
+        // The exact footprint (its corners as offsets from the query point) where the query
+        // has it, and the parallelogram, grown to hold it, that the map is asked about.
+        let exact = q.exact.as_ref();
+        let grown = exact.map(|e| q.footprint.map(|f| f * e.grow));
+        let reach = grown.as_ref().unwrap_or(&q.footprint);
+        counts.exact_footprints += u64::from(exact.is_some());
+        self.map.covering(q.position, reach, &mut scratch.found);
+        counts.photons_found += scratch.found.len() as u64;
+        let x = q.position.as_vec3();
+        let n = q.normal.as_vec3();
+        let mut total = Vec3::ZERO;
+        for &i in &scratch.found {
+            let p = &self.map.photons[i as usize];
+            let v = x - p.position;
+            if !on_query_surface(p, v, n) {
+                continue;
+            }
+            // In double precision from the query's own (not f32-rounded) point and
+            // footprint: the filter map scales a pixel by its size over the photon's, so a
+            // photon far smaller than the pixel (a focus) would see f32's rounding of them
+            // magnified; so it is placed to within its stored position's rounding, and
+            // footprints sharing a corner split it exactly.
+            let (m0, m1) = (p.m[0].as_dvec3(), p.m[1].as_dvec3());
+            let filter = |w: DVec3| DVec2::new(m0.dot(w), m1.dot(w));
+            let s = filter(q.position - p.position.as_dvec3());
+            let (a, b) = (filter(f[0]), filter(f[1]));
+            let overlap = match exact.map(|e| (e, e.frame.classify(s, a, b))) {
+                Some((_, QuadOverlap::None)) => Overlap::None,
+                // The quadrilateral inside the disc (or a point to it): weighted at the
+                // kernel's centroid over it.
+                Some((e, QuadOverlap::Mean(mean))) => {
+                    Overlap::Mean(mean * e.weight_inside(s, a, b, mean))
+                }
+                // The kernel's mass lies about the photon: the image-area weight at its
+                // centre (exact for a weight linear over the footprint).
+                Some((e, QuadOverlap::DiscInside(mean))) => {
+                    Overlap::Mean(mean * e.weight_in_filter_space(s, a, b)[0])
+                }
+                // The weight, linear over the footprint, integrated with the kernel by
+                // the general formula's batch (its integral and first moment).
+                Some((e, QuadOverlap::General(vertices))) => {
+                    let k = e.weight_in_filter_space(s, a, b);
+                    scratch.quads.push_weighted(vertices, k);
+                    scratch.general_quads.push((j, i));
+                    continue;
+                }
+                // No exact footprint, or one too thin or folded: the parallelogram.
+                Some((_, QuadOverlap::NotConvex)) | None => classify(s, a, b),
+            };
+            match overlap {
+                Overlap::None => {}
+                Overlap::Mean(mean) => {
+                    if mean > 0.0 {
+                        counts.photons_used += 1;
+                        total += p.power * (p.inv_area * mean as f32);
+                    }
+                }
+                Overlap::General { s, a, b } => {
+                    scratch.batch.push(s, a, b);
+                    scratch.general.push((j, i));
+                }
+            }
+        }
+        total
+    }
 }
 
 impl RadianceEstimator for IntegratedEstimate<'_> {
@@ -123,97 +211,47 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
     }
 
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
-        counts.gathers += 1;
-        let f = if q.footprint[0].is_finite() && q.footprint[1].is_finite() {
-            q.footprint
-        } else {
-            [DVec3::ZERO; 2]
-        };
-        // The exact footprint (its corners as offsets from the query point) where the query
-        // has it, and the parallelogram, grown to hold it, that the map is asked about.
-        let exact = q.exact.as_ref();
-        let grown = exact.map(|e| q.footprint.map(|f| f * e.grow));
-        let reach = grown.as_ref().unwrap_or(&q.footprint);
-        counts.exact_footprints += u64::from(exact.is_some());
+        let mut out = [DVec3::ZERO];
+        self.radiance_batch(std::slice::from_ref(q), &[1.0], &mut out, counts);
+        out[0]
+    }
+
+    /// Every query's photons first, then the general formula over all of their crossing
+    /// photons at once: a gather holds one or two such photons on average, which alone would
+    /// fill a quarter to a half of a four-lane batch. Each query's sum is taken in the order
+    /// a lone gather takes it (closed forms in the order found, then the batches' photons).
+    fn radiance_batch(
+        &self,
+        queries: &[GatherQuery],
+        _shares: &[f64],
+        out: &mut [DVec3],
+        counts: &mut GatherCounts,
+    ) {
         SCRATCH.with(|scratch| {
             let scratch = &mut *scratch.borrow_mut();
-            self.map.covering(q.position, reach, &mut scratch.found);
-            counts.photons_found += scratch.found.len() as u64;
-            let x = q.position.as_vec3();
-            let n = q.normal.as_vec3();
             scratch.batch.clear();
             scratch.general.clear();
             scratch.quads.clear();
             scratch.general_quads.clear();
-            let mut total = Vec3::ZERO;
-            for &i in &scratch.found {
-                let p = &self.map.photons[i as usize];
-                let v = x - p.position;
-                if !on_query_surface(p, v, n) {
-                    continue;
-                }
-                // In double precision from the query's own (not f32-rounded) point and
-                // footprint: the filter map scales a pixel by its size over the photon's, so a
-                // photon far smaller than the pixel (a focus) would see f32's rounding of them
-                // magnified; so it is placed to within its stored position's rounding, and
-                // footprints sharing a corner split it exactly.
-                let (m0, m1) = (p.m[0].as_dvec3(), p.m[1].as_dvec3());
-                let filter = |w: DVec3| DVec2::new(m0.dot(w), m1.dot(w));
-                let s = filter(q.position - p.position.as_dvec3());
-                let (a, b) = (filter(f[0]), filter(f[1]));
-                let overlap = match exact.map(|e| (e, e.frame.classify(s, a, b))) {
-                    Some((_, QuadOverlap::None)) => Overlap::None,
-                    // The quadrilateral inside the disc (or a point to it): weighted at the
-                    // kernel's centroid over it.
-                    Some((e, QuadOverlap::Mean(mean))) => {
-                        Overlap::Mean(mean * e.weight_inside(s, a, b, mean))
-                    }
-                    // The kernel's mass lies about the photon: the image-area weight at its
-                    // centre (exact for a weight linear over the footprint).
-                    Some((e, QuadOverlap::DiscInside(mean))) => {
-                        Overlap::Mean(mean * e.weight_in_filter_space(s, a, b)[0])
-                    }
-                    // The weight, linear over the footprint, integrated with the kernel by
-                    // the general formula's batch (its integral and first moment).
-                    Some((e, QuadOverlap::General(vertices))) => {
-                        let k = e.weight_in_filter_space(s, a, b);
-                        scratch.quads.push_weighted(vertices, k);
-                        scratch.general_quads.push(i);
-                        continue;
-                    }
-                    // No exact footprint, or one too thin or folded: the parallelogram.
-                    Some((_, QuadOverlap::NotConvex)) | None => classify(s, a, b),
-                };
-                match overlap {
-                    Overlap::None => {}
-                    Overlap::Mean(mean) => {
-                        if mean > 0.0 {
-                            counts.photons_used += 1;
-                            total += p.power * (p.inv_area * mean as f32);
-                        }
-                    }
-                    Overlap::General { s, a, b } => {
-                        scratch.batch.push(s, a, b);
-                        scratch.general.push(i);
-                    }
-                }
+            scratch.totals.clear();
+            for (j, q) in queries.iter().enumerate() {
+                let total = self.gather(q, j as u32, scratch, counts);
+                scratch.totals.push(total);
             }
             parallelogram_means(&mut scratch.batch, &mut scratch.means);
             quad_means(&mut scratch.quads, &mut scratch.quad_means);
+            let owners = scratch.general.iter().chain(&scratch.general_quads);
             let means = scratch.means.iter().chain(&scratch.quad_means);
-            for (&i, &mean) in scratch
-                .general
-                .iter()
-                .chain(&scratch.general_quads)
-                .zip(means)
-            {
+            for (&(j, i), &mean) in owners.zip(means) {
                 if mean > 0.0 {
                     counts.photons_used += 1;
                     let p = &self.map.photons[i as usize];
-                    total += p.power * (p.inv_area * mean as f32);
+                    scratch.totals[j as usize] += p.power * (p.inv_area * mean as f32);
                 }
             }
-            q.albedo * (FRAC_1_PI * FRAC_2_PI) * total.as_dvec3()
+            for ((o, q), total) in out.iter_mut().zip(queries).zip(&scratch.totals) {
+                *o = q.albedo * (FRAC_1_PI * FRAC_2_PI) * total.as_dvec3();
+            }
         })
     }
 }

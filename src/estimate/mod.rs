@@ -108,6 +108,23 @@ pub trait RadianceEstimator: Sync {
     fn radiance_share(&self, query: &GatherQuery, _share: f64, counts: &mut GatherCounts) -> DVec3 {
         self.radiance(query, counts)
     }
+
+    /// [`RadianceEstimator::radiance_share`] for each of `queries` with its share, into `out`
+    /// (as long as `queries`). The render loop asks for a packet's gathers at once, so that an
+    /// estimator that evaluates photons in SIMD lanes (`integrated`) fills its lanes across
+    /// gathers rather than padding each gather's few photons to a whole batch.
+    fn radiance_batch(
+        &self,
+        queries: &[GatherQuery],
+        shares: &[f64],
+        out: &mut [DVec3],
+        counts: &mut GatherCounts,
+    ) {
+        debug_assert!(queries.len() == shares.len() && queries.len() == out.len());
+        for ((q, &share), o) in queries.iter().zip(shares).zip(out) {
+            *o = self.radiance_share(q, share, counts);
+        }
+    }
 }
 
 /// Photons stored on a surface facing another way than the query's (the other side of a thin

@@ -371,6 +371,10 @@ impl<'a> TileRenderer<'a> {
         let mut radiance = [DVec3::ZERO; PACKET_WIDTH];
         let mut hits: [Option<Hit>; PACKET_WIDTH] = [None; PACKET_WIDTH];
         let mut rays = [Ray::new(DVec3::ZERO, DVec3::X); PACKET_WIDTH];
+        // A packet's gathers, as estimators that read one point and estimators that
+        // integrate the view footprint see them, with their shares, and the answers.
+        let (mut queries, mut centred_queries) = (Vec::new(), Vec::new());
+        let (mut shares, mut answers) = (Vec::new(), Vec::new());
         // One random stream per tile, seeded by the run's seed and the tile's first pixel:
         // independent of which thread renders the tile.
         let first_pixel = tile.y0 as u64 * camera.width as u64 + tile.x0 as u64;
@@ -404,6 +408,9 @@ impl<'a> TileRenderer<'a> {
             tally.rays.shadow += self.direct.add(&vertices, &mut rng, &mut radiance);
             if !self.estimators.is_empty() {
                 let [jx, jy] = self.options.jitter;
+                queries.clear();
+                centred_queries.clear();
+                shares.clear();
                 for v in &vertices {
                     let query = GatherQuery {
                         position: v.hit.position,
@@ -430,16 +437,30 @@ impl<'a> TileRenderer<'a> {
                             .and_then(|c| ExactFootprint::new(&c, x, f))
                             .map(|e| e.seen_from(camera.eye, camera.forward, x, f));
                     }
-                    for (k, estimator) in self.estimators.iter().enumerate() {
-                        let at = if estimator.integrates_view_footprint() {
-                            &centred
-                        } else {
-                            &query
-                        };
-                        // A cell of an edge pixel spends its share of a view cell's effort
-                        // (1 for the view grid's own cells).
-                        let share = (view_grid as f64 / chunk[v.sample].3 as f64).powi(2);
-                        let l = estimator.radiance_share(at, share, &mut gathers);
+                    queries.push(query);
+                    centred_queries.push(centred);
+                    // A cell of an edge pixel spends its share of a view cell's effort
+                    // (1 for the view grid's own cells).
+                    shares.push((view_grid as f64 / chunk[v.sample].3 as f64).powi(2));
+                }
+                // Every estimator answers the packet's gathers at once; the answers are added
+                // in the order vertex by vertex, estimator by estimator.
+                answers.resize(self.estimators.len() * vertices.len(), DVec3::ZERO);
+                for (estimator, out) in self
+                    .estimators
+                    .iter()
+                    .zip(answers.chunks_mut(vertices.len().max(1)))
+                {
+                    let at = if estimator.integrates_view_footprint() {
+                        &centred_queries
+                    } else {
+                        &queries
+                    };
+                    estimator.radiance_batch(at, &shares, out, &mut gathers);
+                }
+                for (j, v) in vertices.iter().enumerate() {
+                    for k in 0..self.estimators.len() {
+                        let l = answers[k * vertices.len() + j];
                         if k == 0 && l != DVec3::ZERO {
                             reach[chunk[v.sample].0] = true;
                         }
