@@ -154,16 +154,18 @@ impl QuadFrame {
         if area == 0.0 || area.is_nan() || !turns.into_iter().all(|t| t * area > 0.0) {
             return None;
         }
-        // Polygon moments by Green's theorem, fan triangle (0, p, q) by fan triangle.
+        // Polygon moments by Green's theorem, fan triangle (0, p, q) by fan triangle; each
+        // sum's constant denominator and the area divided out once at the end (the divisions
+        // were most of the cost of a frame, prepared once per gather).
         let mut sums = [0.0; 9];
         for k in 0..4 {
             let (p, q) = (w[k], w[(k + 1) % 4]);
             let c = cross(k);
-            sums[0] += c * (p.x + q.x) / 6.0;
-            sums[1] += c * (p.y + q.y) / 6.0;
-            sums[2] += c * (p.x * p.x + p.x * q.x + q.x * q.x) / 12.0;
-            sums[3] += c * (p.x * q.y + 2.0 * p.x * p.y + 2.0 * q.x * q.y + q.x * p.y) / 24.0;
-            sums[4] += c * (p.y * p.y + p.y * q.y + q.y * q.y) / 12.0;
+            sums[0] += c * (p.x + q.x);
+            sums[1] += c * (p.y + q.y);
+            sums[2] += c * (p.x * p.x + p.x * q.x + q.x * q.x);
+            sums[3] += c * (p.x * q.y + 2.0 * p.x * p.y + 2.0 * q.x * q.y + q.x * p.y);
+            sums[4] += c * (p.y * p.y + p.y * q.y + q.y * q.y);
             let cubic = |p: f64, q: f64| p * p * p + p * p * q + p * q * q + q * q * q;
             // x^2 y (and, with the roles swapped, x y^2).
             let mixed = |px: f64, py: f64, qx: f64, qy: f64| {
@@ -173,12 +175,15 @@ impl QuadFrame {
                     + qx * qx * py
                     + 3.0 * qx * qx * qy
             };
-            sums[5] += c * cubic(p.x, q.x) / 20.0;
-            sums[6] += c * mixed(p.x, p.y, q.x, q.y) / 60.0;
-            sums[7] += c * mixed(p.y, p.x, q.y, q.x) / 60.0;
-            sums[8] += c * cubic(p.y, q.y) / 20.0;
+            sums[5] += c * cubic(p.x, q.x);
+            sums[6] += c * mixed(p.x, p.y, q.x, q.y);
+            sums[7] += c * mixed(p.y, p.x, q.y, q.x);
+            sums[8] += c * cubic(p.y, q.y);
         }
-        let centred = sums.map(|m| m / area);
+        let inv_area = 1.0 / area;
+        let denominators = [6.0, 6.0, 12.0, 24.0, 12.0, 20.0, 60.0, 60.0, 20.0];
+        let centred: [f64; 9] =
+            std::array::from_fn(|k| sums[k] * (inv_area * (1.0 / denominators[k])));
         // Moments about the origin from those about the centre.
         let [mx, my, mxx, mxy, myy, ..] = centred;
         let (cx, cy) = (centre.x, centre.y);
