@@ -1,15 +1,17 @@
 //! The exact test behind footprint range queries: whether a photon's kernel may be non-zero
-//! anywhere in a view footprint ([`may_cover`]), and the same test on a BVH leaf's four photons
-//! at once in SIMD lanes ([`CoverTable`]).
+//! anywhere in a view footprint ([`may_cover`]), and the same test on a BVH leaf's photons (up
+//! to eight) at once in SIMD lanes ([`CoverTable`]).
 //!
 //! Why a table beside the photons: a query tests about four photons for every one it keeps (box
 //! against box lets through the corners and, for needle-shaped footprints, most of the box), and
 //! testing them one at a time from the 80-byte photons was a sixth of the default render. The
-//! table holds only what the test reads, in leaf slots, so a leaf's photons load as four lanes.
+//! table holds only what the test reads, in leaf slots, so a leaf's photons load as eight lanes
+//! (`f32x8`: one AVX register; a leaf of eight costs what a leaf of four did, and the tree of
+//! leaves of eight is half as large).
 
 use crate::photons::map::Photon;
 use glam::{Vec2, Vec3};
-use wide::f32x4;
+use wide::f32x8;
 
 /// How far off its tangent plane a query point may lie and still see a photon, as a fraction of
 /// the photon's radius (`estimate::on_query_surface`).
@@ -61,7 +63,7 @@ pub fn may_cover(p: &Photon, v: Vec3, f: [Vec3; 2]) -> bool {
 }
 
 /// What [`may_cover`] reads of each photon, as a structure of arrays in the photon map's order
-/// (the footprint BVH's leaf slots), padded so that four lanes load from any slot.
+/// (the footprint BVH's leaf slots), padded so that eight lanes load from any slot.
 #[derive(Default)]
 pub struct CoverTable {
     /// Position, x, y, z.
@@ -76,14 +78,14 @@ pub struct CoverTable {
 
 /// A view footprint to test photons against: its centre and edges, in every lane.
 pub struct CoverQuery {
-    c: [f32x4; 3],
-    f: [[f32x4; 3]; 2],
+    c: [f32x8; 3],
+    f: [[f32x8; 3]; 2],
 }
 
 impl CoverQuery {
     /// The footprint `c +- f[0]/2 +- f[1]/2`.
     pub fn new(c: Vec3, f: [Vec3; 2]) -> Self {
-        let splat = |v: Vec3| [f32x4::splat(v.x), f32x4::splat(v.y), f32x4::splat(v.z)];
+        let splat = |v: Vec3| [f32x8::splat(v.x), f32x8::splat(v.y), f32x8::splat(v.z)];
         CoverQuery {
             c: splat(c),
             f: [splat(f[0]), splat(f[1])],
@@ -91,16 +93,12 @@ impl CoverQuery {
     }
 }
 
-fn dot(a: &[f32x4; 3], b: &[f32x4; 3]) -> f32x4 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
 impl CoverTable {
     /// The table of `photons`, in their order.
     pub fn new(photons: &[Photon]) -> Self {
         let mut t = CoverTable::default();
-        // Three lanes of padding after the last photon: a leaf's four lanes always load.
-        let n = photons.len() + 3;
+        // Padding after the last photon: a leaf's lanes always load.
+        let n = photons.len() + LANES - 1;
         let column = |get: &dyn Fn(&Photon) -> f32| -> Vec<f32> {
             let mut c: Vec<f32> = photons.iter().map(get).collect();
             c.resize(n, 0.0);
@@ -117,37 +115,39 @@ impl CoverTable {
         t
     }
 
-    /// Appends to `out` the slots among `first..first + count` (`count <= 4`) that
-    /// [`may_cover`] the footprint of `q`, in order.
+    /// Appends to `out` the slots among `first..first + count` (`count <= 8`, a leaf of the
+    /// footprint BVH) that [`may_cover`] the footprint of `q`, in order.
     #[inline]
     pub fn leaf(&self, first: usize, count: usize, q: &CoverQuery, out: &mut Vec<u32>) {
-        debug_assert!(count <= 4);
-        let load = |c: &Vec<f32>| f32x4::from(<[f32; 4]>::try_from(&c[first..first + 4]).unwrap());
+        debug_assert!(count <= LANES);
+        let load =
+            |c: &Vec<f32>| f32x8::from(<[f32; LANES]>::try_from(&c[first..first + LANES]).unwrap());
         let load3 = |c: &[Vec<f32>; 3]| [load(&c[0]), load(&c[1]), load(&c[2])];
+        let (c, f0, f1) = (q.c, q.f[0], q.f[1]);
         let pos = load3(&self.position);
-        let v = [q.c[0] - pos[0], q.c[1] - pos[1], q.c[2] - pos[2]];
+        let v = [c[0] - pos[0], c[1] - pos[1], c[2] - pos[2]];
         let n = load3(&self.normal);
-        let mut reject = dot(&n, &v).abs().simd_gt(load(&self.slab));
+        let mut reject = dot8(&n, &v).abs().simd_gt(load(&self.slab));
         let (m0, m1) = (load3(&self.m[0]), load3(&self.m[1]));
-        let s = [dot(&m0, &v), dot(&m1, &v)];
-        let a = [dot(&m0, &q.f[0]), dot(&m1, &q.f[0])];
-        let b = [dot(&m0, &q.f[1]), dot(&m1, &q.f[1])];
+        let s = [dot8(&m0, &v), dot8(&m1, &v)];
+        let a = [dot8(&m0, &f0), dot8(&m1, &f0)];
+        let b = [dot8(&m0, &f1), dot8(&m1, &f1)];
         let (p0, p1) = (a[0] + b[0], a[1] + b[1]);
         let (d0, d1) = (a[0] - b[0], a[1] - b[1]);
-        let reach = f32x4::splat(0.5) * (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1).sqrt();
-        let bound = f32x4::ONE + reach + f32x4::splat(SLACK);
+        let reach = f32x8::splat(0.5) * (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1).sqrt();
+        let bound = f32x8::ONE + reach + f32x8::splat(SLACK);
         reject |= (s[0] * s[0] + s[1] * s[1]).simd_gt(bound * bound);
         // perp_dot(x, y) = x0 y1 - x1 y0.
         let cross = (a[0] * b[1] - a[1] * b[0]).abs();
         for e in [a, b] {
             let len2 = e[0] * e[0] + e[1] * e[1];
             let across = (e[0] * s[1] - e[1] * s[0]).abs();
-            let limit = len2.sqrt() * f32x4::splat(1.0 + SLACK) + f32x4::splat(0.5) * cross;
-            reject |= len2.simd_gt(f32x4::splat(MIN_EDGE_SQUARED)) & across.simd_gt(limit);
+            let limit = len2.sqrt() * f32x8::splat(1.0 + SLACK) + f32x8::splat(0.5) * cross;
+            reject |= len2.simd_gt(f32x8::splat(MIN_EDGE_SQUARED)) & across.simd_gt(limit);
         }
         // Lanes past the leaf are padding.
-        let lane = f32x4::from([0.0, 1.0, 2.0, 3.0]);
-        let keep = !reject & lane.simd_le(f32x4::splat(count as f32 - 0.5));
+        let lane = f32x8::from([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
+        let keep = !reject & lane.simd_le(f32x8::splat(count as f32 - 0.5));
         let mut bits = keep.to_bitmask();
         while bits != 0 {
             let k = bits.trailing_zeros() as usize;
@@ -155,6 +155,13 @@ impl CoverTable {
             bits &= bits - 1;
         }
     }
+}
+
+/// Lanes of [`CoverTable::leaf`]: the footprint BVH's largest leaf.
+const LANES: usize = 8;
+
+fn dot8(a: &[f32x8; 3], b: &[f32x8; 3]) -> f32x8 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[cfg(test)]
@@ -217,7 +224,7 @@ mod tests {
             prop_assert!(covers || inside == 0, "{inside} points inside, not covered");
         }
 
-        /// The four-lane test answers exactly what `may_cover` answers, photon by photon, for
+        /// The eight-lane test answers exactly what `may_cover` answers, photon by photon, for
         /// leaves of every size anywhere in the table (padding lanes never answer).
         #[test]
         fn the_table_answers_what_may_cover_answers(
@@ -231,7 +238,7 @@ mod tests {
             f1 in prop::array::uniform3(-1f32..1.0),
             fscale in prop::sample::select(vec![0.0f32, 0.01, 0.1, 1.0]),
             first in 0usize..12,
-            count in 0usize..=4,
+            count in 0usize..=LANES,
         ) {
             let photons: Vec<Photon> = photons
                 .iter()

@@ -54,7 +54,7 @@ pub fn footprint_box(p: &Photon) -> Aabb {
 }
 
 /// Photons per leaf at most (the lanes of [`crate::photons::cover::CoverTable::leaf`]).
-pub const LEAF_SIZE: usize = 4;
+pub const LEAF_SIZE: usize = 8;
 
 /// An axis-aligned box.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -107,8 +107,9 @@ struct Node {
 }
 
 /// Four children of a node, their boxes side by side (a structure of arrays) so that a query
-/// tests all four in one SIMD comparison. `entry[k]` is child `k`: a leaf, `first << 3 |
-/// count` (`count` in `1..=LEAF_SIZE`), an inner node, `index << 3`, or none, [`NO_CHILD`]
+/// tests all four in one SIMD comparison. `entry[k]` is child `k`: a leaf, `first <<
+/// COUNT_BITS | count` (`count` in `1..=LEAF_SIZE`), an inner node, `index << COUNT_BITS`, or
+/// none, [`NO_CHILD`]
 /// (with an empty box). Children are in the binary tree's left-to-right order, so a
 /// depth-first walk meets the leaves in leaf order.
 #[derive(Debug, Clone, Copy)]
@@ -123,7 +124,10 @@ struct WideNode {
 const NO_CHILD: u64 = u64::MAX;
 
 // A leaf's count fits the entry's low three bits.
-const _: () = assert!(LEAF_SIZE < 8);
+const _: () = assert!(LEAF_SIZE < 1 << COUNT_BITS);
+
+/// Low bits of [`WideNode::entry`] that hold a leaf's count.
+const COUNT_BITS: u32 = 4;
 
 impl WideNode {
     const EMPTY: WideNode = WideNode {
@@ -291,12 +295,12 @@ impl FootprintBvh {
         while top > 0 {
             top -= 1;
             let entry = stack[top];
-            let count = (entry & 7) as usize;
+            let count = (entry & ((1 << COUNT_BITS) - 1)) as usize;
             if count > 0 {
-                visit((entry >> 3) as usize, count);
+                visit((entry >> COUNT_BITS) as usize, count);
                 continue;
             }
-            let node = &self.nodes[(entry >> 3) as usize];
+            let node = &self.nodes[(entry >> COUNT_BITS) as usize];
             // Children pushed last first, so that child 0 is taken first: leaf order.
             let mut hit = node.overlapping_children(&q);
             if let Some(prism) = prism.filter(|_| hit != 0) {
@@ -346,7 +350,7 @@ fn build(boxes: &[Aabb], codes: &[u64], first: usize, end: usize, nodes: &mut Ve
 
 /// A binary leaf's [`WideNode::entry`].
 fn leaf_entry(node: &Node) -> u64 {
-    u64::from(node.index) << 3 | u64::from(node.count)
+    u64::from(node.index) << COUNT_BITS | u64::from(node.count)
 }
 
 /// Appends the wide node of binary node `at` and, before returning, those of its inner
@@ -381,7 +385,7 @@ fn collapse(binary: &[Node], at: usize, nodes: &mut Vec<WideNode>) -> usize {
         node.entry[k] = if binary[c].count > 0 {
             leaf_entry(&binary[c])
         } else {
-            (collapse(binary, c, nodes) as u64) << 3
+            (collapse(binary, c, nodes) as u64) << COUNT_BITS
         };
     }
     nodes[me] = node;
