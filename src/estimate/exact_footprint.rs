@@ -52,10 +52,14 @@ impl ExactFootprint {
         if det.is_nan() || det <= 1e-12 * g00 * g11 || !det.is_finite() {
             return None;
         }
+        let inv_det = 1.0 / det;
         let coordinates = corners.map(|c| {
             let w = c - x;
             let (b0, b1) = (w.dot(f[0]), w.dot(f[1]));
-            DVec2::new((g11 * b0 - g01 * b1) / det, (g00 * b1 - g01 * b0) / det)
+            DVec2::new(
+                (g11 * b0 - g01 * b1) * inv_det,
+                (g00 * b1 - g01 * b0) * inv_det,
+            )
         });
         let grow = coordinates
             .iter()
@@ -87,10 +91,12 @@ impl ExactFootprint {
         footprint: &[DVec3; 2],
     ) -> Self {
         let depth = forward.dot(x - eye);
-        let g = footprint.map(|f| -3.0 * forward.dot(f) / depth);
+        let scale = -3.0 / depth;
+        let g = footprint.map(|f| scale * forward.dot(f));
         let mean = 1.0 + g[0] * self.frame.centroid().x + g[1] * self.frame.centroid().y;
         if depth > 0.0 && mean > 0.0 && mean.is_finite() {
-            let w = [1.0 / mean, g[0] / mean, g[1] / mean];
+            let inv_mean = 1.0 / mean;
+            let w = [inv_mean, g[0] * inv_mean, g[1] * inv_mean];
             self.weight = w;
             let centre = self.frame.centre();
             let [m_a, m_b, m_aa, m_ab, m_bb, m_aaa, m_aab, m_abb, m_bbb] =

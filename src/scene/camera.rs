@@ -69,9 +69,17 @@ impl Camera {
 
     /// Un-normalised direction `d = V + sx R + sy U` through continuous pixel coordinates.
     fn direction(&self, x: f64, y: f64) -> DVec3 {
-        let sx = (2.0 * x / self.width as f64 - 1.0) * self.tan_half_fov * self.aspect();
-        let sy = (1.0 - 2.0 * y / self.height as f64) * self.tan_half_fov;
-        self.forward + self.right * sx + self.up * sy
+        self.forward + self.right * self.screen_x(x) + self.up * self.screen_y(y)
+    }
+
+    /// `sx` of [`Camera::direction`] at pixel column `x`.
+    fn screen_x(&self, x: f64) -> f64 {
+        (2.0 * x / self.width as f64 - 1.0) * self.tan_half_fov * self.aspect()
+    }
+
+    /// `sy` of [`Camera::direction`] at pixel row `y`.
+    fn screen_y(&self, y: f64) -> f64 {
+        (1.0 - 2.0 * y / self.height as f64) * self.tan_half_fov
     }
 
     /// The ray through continuous pixel coordinates `(x, y)`, with differentials with respect to
@@ -106,12 +114,15 @@ impl Camera {
         normal: DVec3,
     ) -> Option<[DVec3; 4]> {
         let depth = (point - self.eye).dot(normal);
+        // The corners' screen coordinates once each (as `direction` computes them: a corner
+        // shared with a neighbour comes out the same), two columns and two rows.
+        let (sx, sy) = (
+            [self.screen_x(x0), self.screen_x(x1)],
+            [self.screen_y(y0), self.screen_y(y1)],
+        );
         let mut corners = [DVec3::ZERO; 4];
-        for (corner, (x, y)) in corners
-            .iter_mut()
-            .zip([(x0, y0), (x1, y0), (x1, y1), (x0, y1)])
-        {
-            let d = self.direction(x, y);
+        for (corner, (i, j)) in corners.iter_mut().zip([(0, 0), (1, 0), (1, 1), (0, 1)]) {
+            let d = self.forward + self.right * sx[i] + self.up * sy[j];
             let t = depth / d.dot(normal);
             if !(t > 0.0 && t.is_finite()) {
                 return None;
