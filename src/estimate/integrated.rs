@@ -219,7 +219,9 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
     /// Every query's photons first, then the general formula over all of their crossing
     /// photons at once: a gather holds one or two such photons on average, which alone would
     /// fill a quarter to a half of a four-lane batch. Each query's sum is taken in the order
-    /// a lone gather takes it (closed forms in the order found, then the batches' photons).
+    /// a lone gather takes it (closed forms in the order found, then the batches' photons);
+    /// a crossing photon's mean can differ from a lone gather's in its last bits only, where
+    /// the four lanes it shares choose the general formula's four-`atan2` form.
     fn radiance_batch(
         &self,
         queries: &[GatherQuery],
