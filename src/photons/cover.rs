@@ -9,6 +9,7 @@
 //! (`f32x8`: one AVX register; a leaf of eight costs what a leaf of four did, and the tree of
 //! leaves of eight is half as large).
 
+use crate::photons::footprint_bvh::LEAF_SIZE;
 use crate::photons::map::Photon;
 use glam::{Vec2, Vec3};
 use wide::f32x8;
@@ -127,11 +128,11 @@ impl CoverTable {
         let pos = load3(&self.position);
         let v = [c[0] - pos[0], c[1] - pos[1], c[2] - pos[2]];
         let n = load3(&self.normal);
-        let mut reject = dot8(&n, &v).abs().simd_gt(load(&self.slab));
+        let mut reject = dot(&n, &v).abs().simd_gt(load(&self.slab));
         let (m0, m1) = (load3(&self.m[0]), load3(&self.m[1]));
-        let s = [dot8(&m0, &v), dot8(&m1, &v)];
-        let a = [dot8(&m0, &f0), dot8(&m1, &f0)];
-        let b = [dot8(&m0, &f1), dot8(&m1, &f1)];
+        let s = [dot(&m0, &v), dot(&m1, &v)];
+        let a = [dot(&m0, &f0), dot(&m1, &f0)];
+        let b = [dot(&m0, &f1), dot(&m1, &f1)];
         let (p0, p1) = (a[0] + b[0], a[1] + b[1]);
         let (d0, d1) = (a[0] - b[0], a[1] - b[1]);
         let reach = f32x8::splat(0.5) * (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1).sqrt();
@@ -157,10 +158,11 @@ impl CoverTable {
     }
 }
 
-/// Lanes of [`CoverTable::leaf`]: the footprint BVH's largest leaf.
-const LANES: usize = 8;
+/// Lanes of [`CoverTable::leaf`]: the footprint BVH's largest leaf, one `f32x8`.
+const LANES: usize = LEAF_SIZE;
+const _: () = assert!(LANES == 8, "a leaf is tested in one f32x8");
 
-fn dot8(a: &[f32x8; 3], b: &[f32x8; 3]) -> f32x8 {
+fn dot(a: &[f32x8; 3], b: &[f32x8; 3]) -> f32x8 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 

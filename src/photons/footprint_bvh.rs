@@ -109,8 +109,7 @@ struct Node {
 /// Four children of a node, their boxes side by side (a structure of arrays) so that a query
 /// tests all four in one SIMD comparison. `entry[k]` is child `k`: a leaf, `first <<
 /// COUNT_BITS | count` (`count` in `1..=LEAF_SIZE`), an inner node, `index << COUNT_BITS`, or
-/// none, [`NO_CHILD`]
-/// (with an empty box). Children are in the binary tree's left-to-right order, so a
+/// none, [`NO_CHILD`] (with an empty box). Children are in the binary tree's left-to-right order, so a
 /// depth-first walk meets the leaves in leaf order.
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(64))]
@@ -123,7 +122,7 @@ struct WideNode {
 /// [`WideNode::entry`] of a missing child.
 const NO_CHILD: u64 = u64::MAX;
 
-// A leaf's count fits the entry's low three bits.
+// A leaf's count fits the entry's low `COUNT_BITS` bits.
 const _: () = assert!(LEAF_SIZE < 1 << COUNT_BITS);
 
 /// Low bits of [`WideNode::entry`] that hold a leaf's count.

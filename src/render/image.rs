@@ -406,7 +406,7 @@ impl<'a> TileRenderer<'a> {
                 );
             }
             tally.rays.shadow += self.direct.add(&vertices, &mut rng, &mut radiance);
-            if !self.estimators.is_empty() {
+            if !self.estimators.is_empty() && !vertices.is_empty() {
                 let [jx, jy] = self.options.jitter;
                 queries.clear();
                 centred_queries.clear();
@@ -449,7 +449,7 @@ impl<'a> TileRenderer<'a> {
                 for (estimator, out) in self
                     .estimators
                     .iter()
-                    .zip(answers.chunks_mut(vertices.len().max(1)))
+                    .zip(answers.chunks_mut(vertices.len()))
                 {
                     let at = if estimator.integrates_view_footprint() {
                         &centred_queries

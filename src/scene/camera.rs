@@ -69,7 +69,12 @@ impl Camera {
 
     /// Un-normalised direction `d = V + sx R + sy U` through continuous pixel coordinates.
     fn direction(&self, x: f64, y: f64) -> DVec3 {
-        self.forward + self.right * self.screen_x(x) + self.up * self.screen_y(y)
+        self.toward(self.screen_x(x), self.screen_y(y))
+    }
+
+    /// `V + sx R + sy U`: [`Camera::direction`] from screen coordinates.
+    fn toward(&self, sx: f64, sy: f64) -> DVec3 {
+        self.forward + self.right * sx + self.up * sy
     }
 
     /// `sx` of [`Camera::direction`] at pixel column `x`.
@@ -122,7 +127,7 @@ impl Camera {
         );
         let mut corners = [DVec3::ZERO; 4];
         for (corner, (i, j)) in corners.iter_mut().zip([(0, 0), (1, 0), (1, 1), (0, 1)]) {
-            let d = self.forward + self.right * sx[i] + self.up * sy[j];
+            let d = self.toward(sx[i], sy[j]);
             let t = depth / d.dot(normal);
             if !(t > 0.0 && t.is_finite()) {
                 return None;
