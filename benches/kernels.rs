@@ -184,11 +184,11 @@ fn integrated(photons: &[(Vec2, Vec2, Vec2)]) {
     println!("| kernel | M photons/s |");
     println!("|---|---|");
     println!(
-        "| integrated: closed forms + general formula (SIMD f64x4), all photons | {:.1} |",
+        "| integrated: closed forms + general formula (SIMD f64x8), all photons | {:.1} |",
         n / all / 1e6
     );
     println!(
-        "| integrated: general formula only, SIMD f64x4 (crossing photons) | {:.1} |",
+        "| integrated: general formula only, SIMD f64x8 (crossing photons) | {:.1} |",
         crossing as f64 / simd / 1e6
     );
     println!(

@@ -13,7 +13,7 @@
 //! ([`crate::geometry::disc_integral`], with its derivation): most photons are settled there by
 //! a closed form of their own (the parallelogram inside the disc, the disc inside the
 //! parallelogram, apart); the rest, whose parallelogram crosses the circle, go through the
-//! general formula in `f64` four photons at a time in SIMD lanes ([`parallelogram_means`]).
+//! general formula in `f64`, [`LANES`] photons at a time in SIMD lanes ([`parallelogram_means`]).
 //!
 //! Where the query carries its exact view footprint ([`GatherQuery::exact`]: the pixel's corner
 //! rays on the tangent plane of a hit seen directly), `V` is that quadrilateral instead of the
@@ -35,6 +35,7 @@
 use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadOverlap};
 use crate::geometry::disc_integral::rows::Rows;
+use crate::geometry::disc_integral::rows::Wide;
 use crate::geometry::disc_integral::{
     classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
 };
@@ -42,7 +43,6 @@ use crate::photons::map::PhotonMap;
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
-use wide::f64x4;
 
 /// SIMD width of the general formula's batch.
 pub use crate::geometry::disc_integral::rows::LANES;
@@ -58,21 +58,21 @@ impl Rows<6> {
 }
 
 /// For each parallelogram of `batch`, the mean of `(1 - |u|^2)+` over it by the general formula
-/// ([`general_one_arc`], or [`general`] where a lane's parallelogram is too large for it), four
-/// at a time in SIMD lanes (`f64x4`). `out` gets one mean per parallelogram.
+/// ([`general_one_arc`], or [`general`] where a lane's parallelogram is too large for it),
+/// [`LANES`] at a time in SIMD lanes ([`Wide`]). `out` gets one mean per parallelogram.
 pub fn parallelogram_means(batch: &mut ParallelogramBatch, out: &mut Vec<f64>) {
     out.clear();
     let len = batch.len();
     // Padding: unit squares far from the disc.
     for [s0, s1, a0, a1, b0, b1] in batch.chunks([1e6, 0.0, 1.0, 0.0, 0.0, 1.0]) {
         // One atan2 a lane, or four where a parallelogram is too large for that.
-        let one_arc = takes_one_arc(a0, a1, b0, b1).simd_ge(f64x4::ZERO);
+        let one_arc = takes_one_arc(a0, a1, b0, b1).simd_ge(Wide::ZERO);
         let (integral, area) = if one_arc.all() {
             general_one_arc(s0, s1, a0, a1, b0, b1)
         } else {
             general(s0, s1, a0, a1, b0, b1)
         };
-        out.extend_from_slice(&(integral / area).max(f64x4::ZERO).to_array());
+        out.extend_from_slice(&(integral / area).max(Wide::ZERO).to_array());
     }
     out.truncate(len);
 }
@@ -218,10 +218,10 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
 
     /// Every query's photons first, then the general formula over all of their crossing
     /// photons at once: a gather holds one or two such photons on average, which alone would
-    /// fill a quarter to a half of a four-lane batch. Each query's sum is taken in the order
+    /// fill an eighth to a quarter of a batch's lanes. Each query's sum is taken in the order
     /// a lone gather takes it (closed forms in the order found, then the batches' photons);
     /// a crossing photon's mean can differ from a lone gather's in its last bits only, where
-    /// the four lanes it shares choose the general formula's four-`atan2` form.
+    /// the lanes it shares choose the general formula's four-`atan2` form.
     fn radiance_batch(
         &self,
         queries: &[GatherQuery],

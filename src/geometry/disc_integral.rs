@@ -49,7 +49,7 @@
 
 use glam::DVec2;
 use std::ops::{Add, Div, Mul, Neg, Sub};
-use wide::f64x4;
+use wide::{f64x4, f64x8};
 
 /// Parallelograms whose edge vectors satisfy `|a|^2 + |b|^2 < POINT_SIZE^2` are points: the mean
 /// of the kernel over them is its value at the centre (the kernel's gradient is at most 2, so
@@ -61,8 +61,8 @@ pub const POINT_SIZE: f64 = 1e-5;
 /// cancellation error is about `1e-16 / width`.
 pub const MIN_WIDTH: f64 = 1e-5;
 
-/// Arithmetic the general formula needs, for one value ([`f64`]) and four in SIMD lanes
-/// ([`f64x4`]), so that the scalar and batched versions are one formula.
+/// Arithmetic the general formula needs, for one value ([`f64`]) and four or eight in SIMD
+/// lanes ([`f64x4`], [`f64x8`]), so that the scalar and batched versions are one formula.
 pub trait Lane:
     Copy
     + Add<Output = Self>
@@ -124,32 +124,40 @@ impl Lane for f64 {
     }
 }
 
-impl Lane for f64x4 {
-    fn splat(x: f64) -> Self {
-        f64x4::splat(x)
-    }
-    fn sqrt(self) -> Self {
-        f64x4::sqrt(self)
-    }
-    fn max(self, o: Self) -> Self {
-        f64x4::max(self, o)
-    }
-    fn min(self, o: Self) -> Self {
-        f64x4::min(self, o)
-    }
-    fn abs(self) -> Self {
-        f64x4::abs(self)
-    }
-    fn atan2(self, x: Self) -> Self {
-        f64x4::atan2(self, x)
-    }
-    fn negate_where_negative(self, sign: Self) -> Self {
-        sign.simd_lt(f64x4::ZERO).bitselect(-self, self)
-    }
-    fn where_positive_else(self, test: Self, other: Self) -> Self {
-        test.simd_gt(f64x4::ZERO).bitselect(self, other)
-    }
+/// The SIMD lane types: four lanes (one AVX register) and eight (one AVX-512 register, or
+/// two AVX halves where the machine has no AVX-512).
+macro_rules! simd_lane {
+    ($t:ident) => {
+        impl Lane for $t {
+            fn splat(x: f64) -> Self {
+                $t::splat(x)
+            }
+            fn sqrt(self) -> Self {
+                $t::sqrt(self)
+            }
+            fn max(self, o: Self) -> Self {
+                $t::max(self, o)
+            }
+            fn min(self, o: Self) -> Self {
+                $t::min(self, o)
+            }
+            fn abs(self) -> Self {
+                $t::abs(self)
+            }
+            fn atan2(self, x: Self) -> Self {
+                $t::atan2(self, x)
+            }
+            fn negate_where_negative(self, sign: Self) -> Self {
+                sign.simd_lt($t::ZERO).bitselect(-self, self)
+            }
+            fn where_positive_else(self, test: Self, other: Self) -> Self {
+                test.simd_gt($t::ZERO).bitselect(self, other)
+            }
+        }
+    };
 }
+simd_lane!(f64x4);
+simd_lane!(f64x8);
 
 /// The flux of `F` through one side of the fan triangle `(0, start, end)` ∩ `D`: the side lies
 /// on the line at signed distance `h` (outward) from the origin and runs over `t in [t0, t1]`.

@@ -20,9 +20,9 @@
 use super::moment::first_moment;
 use super::rows::Rows;
 use super::{one_arc_flux, side, Lane, ONE_ARC_MAX_CIRCUMRADIUS, POINT_SIZE};
+use crate::geometry::disc_integral::rows::Wide;
 use glam::DVec2;
 use std::f64::consts::FRAC_PI_2;
-use wide::f64x4;
 
 /// What [`classify_quad`] settles for a quadrilateral.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -365,7 +365,7 @@ pub fn quad_first_moment<T: Lane>(x: [T; 4], y: [T; 4]) -> (T, T) {
 
 /// For each quadrilateral of `batch`, the mean of `(1 - |u|^2)+` times its weight over it by
 /// the general formula (a linear weight needs the kernel's integral and first moment),
-/// four at a time in SIMD lanes (as `estimate::integrated::parallelogram_means`).
+/// [`super::rows::LANES`] at a time in SIMD lanes (as `estimate::integrated::parallelogram_means`).
 pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>) {
     out.clear();
     let len = batch.len();
@@ -387,20 +387,18 @@ pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>) {
         let (x, y) = ([x0, x1, x2, x3], [y0, y1, y2, y3]);
         // The sides once, for the integral and the first moment alike.
         let (sides, tangents, area) = quad_sides(x, y);
-        let integral = if quad_takes_one_arc(x, y).simd_ge(f64x4::ZERO).all() {
+        let integral = if quad_takes_one_arc(x, y).simd_ge(Wide::ZERO).all() {
             one_arc_flux(sides)
         } else {
             sides
                 .iter()
-                .fold(f64x4::ZERO, |sum, &(h, t0, t1)| sum + side(h, t0, t1))
+                .fold(Wide::ZERO, |sum, &(h, t0, t1)| sum + side(h, t0, t1))
         };
         let (mx, my) = first_moment(&sides, &tangents);
         let weighted = k0 * integral + kx * mx + ky * my;
         // Where the integral is 0 (tangency, rounding) so is the weighted one.
-        let weighted = integral
-            .simd_gt(f64x4::ZERO)
-            .bitselect(weighted, f64x4::ZERO);
-        out.extend_from_slice(&(weighted / area).max(f64x4::ZERO).to_array());
+        let weighted = integral.simd_gt(Wide::ZERO).bitselect(weighted, Wide::ZERO);
+        out.extend_from_slice(&(weighted / area).max(Wide::ZERO).to_array());
     }
     out.truncate(len);
 }

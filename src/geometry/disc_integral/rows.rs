@@ -1,10 +1,14 @@
 //! The general formula's batches: rows of numbers (a parallelogram's six, a quadrilateral's
-//! eight) kept as columns, so that four consecutive rows load as one `f64x4` per column.
+//! eight) kept as columns, so that [`LANES`] consecutive rows load as one [`Wide`] per column.
 
-use wide::f64x4;
+/// The batches' SIMD lanes: eight `f64`, one AVX-512 register where the machine has it (the
+/// build targets the machine's CPU, `.cargo/config.toml`) and two AVX halves elsewhere. Eight
+/// lanes where four were before made the general formula's batches 1.6x faster on this
+/// AVX-512 machine (`integrated`'s render stage 5% at 20,000 photons, 7.5% at 1,280,000).
+pub type Wide = wide::f64x8;
 
 /// SIMD width of the batches.
-pub const LANES: usize = 4;
+pub const LANES: usize = 8;
 
 /// Rows of `N` numbers stored as `N` columns (structure of arrays).
 #[derive(Debug, Clone)]
@@ -54,9 +58,9 @@ impl<const N: usize> Rows<N> {
         std::array::from_fn(|c| self.columns[c][k])
     }
 
-    /// Every four rows as one `f64x4` per column, the last four completed with copies of
+    /// Every [`LANES`] rows as one [`Wide`] per column, the last ones completed with copies of
     /// `filler` (which the caller chooses so that its answer is harmless: far from the disc).
-    pub fn chunks(&mut self, filler: [f64; N]) -> impl Iterator<Item = [f64x4; N]> + '_ {
+    pub fn chunks(&mut self, filler: [f64; N]) -> impl Iterator<Item = [Wide; N]> + '_ {
         while !self.columns[0].len().is_multiple_of(LANES) {
             for (c, x) in self.columns.iter_mut().zip(filler) {
                 c.push(x);
@@ -65,7 +69,7 @@ impl<const N: usize> Rows<N> {
         let columns = &self.columns;
         (0..columns[0].len()).step_by(LANES).map(move |k| {
             std::array::from_fn(|c| {
-                f64x4::from(
+                Wide::from(
                     <[f64; LANES]>::try_from(&columns[c][k..k + LANES]).unwrap_or([0.0; LANES]),
                 )
             })
