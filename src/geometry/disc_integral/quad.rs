@@ -22,7 +22,7 @@ use super::rows::Rows;
 use super::{one_arc_flux, side, Lane, ONE_ARC_MAX_CIRCUMRADIUS, POINT_SIZE};
 use crate::geometry::disc_integral::rows::Wide;
 use glam::DVec2;
-use std::f64::consts::FRAC_PI_2;
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// What [`classify_quad`] settles for a quadrilateral.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -274,17 +274,18 @@ impl QuadFrame {
             return QuadOverlap::Mean(1.0 - mean_u2);
         }
         // Beyond 1 + R from the centre: apart, though no side's line may separate them (the
-        // disc faces a corner).
-        let r = r2.sqrt();
-        if cc >= (1.0 + r) * (1.0 + r) {
+        // disc faces a corner). Without a square root: cc >= (1 + R)^2 = 1 + R^2 + 2 R.
+        let beyond = cc - 1.0 - r2;
+        if beyond >= 0.0 && beyond * beyond >= 4.0 * r2 {
             return QuadOverlap::None;
         }
         let cross = a.perp_dot(b);
         let area = (cross * self.area).abs();
         // So thin in filter space that the general formula's cancellation would show: the
         // parallelogram, which is thickened, serves (as `super::MIN_WIDTH`; the diameter is
-        // at most 2 R).
-        if area.is_nan() || area <= super::MIN_WIDTH * 2.0 * r * (2.0 * r).min(1.0) {
+        // at most 2 R): area <= MIN_WIDTH 2 R min(2 R, 1), squared.
+        let thin = super::MIN_WIDTH * super::MIN_WIDTH * 4.0 * r2 * (4.0 * r2).min(1.0);
+        if area.is_nan() || area * area <= thin {
             return QuadOverlap::NotConvex;
         }
         // Counter-clockwise in filter space.
@@ -293,6 +294,13 @@ impl QuadFrame {
         } else {
             v
         };
+        // The disc inside the quadrilateral (every side's line at least 1 from the centre)
+        // needs an area of at least pi; a smaller one crossing the circle is the common case
+        // (photons larger than pixels), and the general formula also settles the rare one that
+        // a side's line separates from the disc (to 0, up to rounding).
+        if area < PI {
+            return QuadOverlap::General(v);
+        }
         let mut all_outside = true;
         for k in 0..4 {
             let (p, q) = (v[k], v[(k + 1) % 4]);
