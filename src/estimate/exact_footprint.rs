@@ -45,6 +45,20 @@ impl ExactFootprint {
     /// parallelogram (a perspective quadrilateral differs from the first-order parallelogram
     /// to second order).
     pub fn new(corners: &[DVec3; 4], x: DVec3, footprint: &[DVec3; 2]) -> Option<Self> {
+        let (coordinates, grow) = Self::in_basis(corners, x, footprint)?;
+        Some(Self::with_frame(QuadFrame::new(coordinates)?, grow))
+    }
+
+    /// [`ExactFootprint::new`]'s first half: the corners' coordinates in the basis `(f[0],
+    /// f[1])` about `x`, and the growth of the parallelogram that holds them; `None` where
+    /// `new` gives `None` for want of a parallelogram or for a quadrilateral reaching past
+    /// twice it. (Its frame, the second half, is [`QuadFrame::new`] of the coordinates, which
+    /// [`QuadFrame::new_many`] prepares for many footprints at once.)
+    pub fn in_basis(
+        corners: &[DVec3; 4],
+        x: DVec3,
+        footprint: &[DVec3; 2],
+    ) -> Option<([DVec2; 4], f64)> {
         let f = footprint;
         // Coordinates in the basis (f0, f1) from the Gram system.
         let (g00, g01, g11) = (f[0].dot(f[0]), f[0].dot(f[1]), f[1].dot(f[1]));
@@ -69,13 +83,18 @@ impl ExactFootprint {
         if grow.is_nan() || grow >= 4.0 {
             return None;
         }
-        let frame = QuadFrame::new(coordinates)?;
-        Some(ExactFootprint {
+        Some((coordinates, grow))
+    }
+
+    /// The footprint of [`ExactFootprint::in_basis`]'s growth with the frame of its
+    /// coordinates, weighted uniformly over surface area.
+    pub fn with_frame(frame: QuadFrame, grow: f64) -> Self {
+        ExactFootprint {
             frame,
             grow,
             weight: [1.0, 0.0, 0.0],
             inside: [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-        })
+        }
     }
 
     /// The same footprint seen through a pinhole at `eye` looking along unit `forward`, from

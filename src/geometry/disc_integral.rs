@@ -429,6 +429,7 @@ fn thickened(a: DVec2, b: DVec2, min_width: f64) -> (DVec2, DVec2) {
 
 pub mod moment;
 pub mod quad;
+pub mod quad_frame;
 pub mod rows;
 
 #[cfg(test)]

@@ -7,6 +7,7 @@
 
 use crate::embree::{self, Hit, Ray, PACKET_WIDTH};
 use crate::estimate::{ExactFootprint, GatherCounts, GatherQuery, RadianceEstimator};
+use crate::geometry::disc_integral::quad_frame::QuadFrame;
 use crate::geometry::surface::facing;
 use crate::render::camera_path::{DiffuseVertex, PathTally, ViewPaths};
 use crate::render::direct_light::DirectLight;
@@ -375,6 +376,10 @@ impl<'a> TileRenderer<'a> {
         // integrate the view footprint see them, with their shares, and the answers.
         let (mut queries, mut centred_queries) = (Vec::new(), Vec::new());
         let (mut shares, mut answers) = (Vec::new(), Vec::new());
+        // The packet's exact footprints: their quadrilaterals, which gather each is and its
+        // growth, their frames.
+        let (mut exact_quads, mut exact_owners, mut exact_frames) =
+            (Vec::new(), Vec::new(), Vec::new());
         // One random stream per tile, seeded by the run's seed and the tile's first pixel:
         // independent of which thread renders the tile.
         let first_pixel = tile.y0 as u64 * camera.width as u64 + tile.x0 as u64;
@@ -411,7 +416,9 @@ impl<'a> TileRenderer<'a> {
                 queries.clear();
                 centred_queries.clear();
                 shares.clear();
-                for v in &vertices {
+                exact_quads.clear();
+                exact_owners.clear();
+                for (j, v) in vertices.iter().enumerate() {
                     let query = GatherQuery {
                         position: v.hit.position,
                         normal: facing(v.hit.geometric_normal, v.ray.d),
@@ -426,22 +433,40 @@ impl<'a> TileRenderer<'a> {
                         centred.position -= v.ray.dp[0] * (jx - 0.5) + v.ray.dp[1] * (jy - 0.5);
                     }
                     // The cell's exact footprint where the hit is seen directly, once for
-                    // every estimator that integrates over it, weighted by the image area its
-                    // parts stand for (the pixel filter is a box on the image, not on the
-                    // surface).
+                    // every estimator that integrates over it: its corners here, its frame
+                    // below with the packet's others.
                     if wants_exact && v.depth == 0 {
                         let (cell, n) = (chunk[v.sample].4, v.hit.geometric_normal);
                         let (x, f) = (centred.position, &v.ray.dp);
-                        centred.exact = camera
+                        if let Some((quad, grow)) = camera
                             .rectangle_on_plane(cell, v.hit.position, n)
-                            .and_then(|c| ExactFootprint::new(&c, x, f))
-                            .map(|e| e.seen_from(camera.eye, camera.forward, x, f));
+                            .and_then(|c| ExactFootprint::in_basis(&c, x, f))
+                        {
+                            exact_quads.push(quad);
+                            exact_owners.push((j, grow));
+                        }
                     }
                     queries.push(query);
                     centred_queries.push(centred);
                     // A cell of an edge pixel spends its share of a view cell's effort
                     // (1 for the view grid's own cells).
                     shares.push((view_grid as f64 / chunk[v.sample].3 as f64).powi(2));
+                }
+                // The exact footprints' frames in SIMD lanes, each weighted by the image area
+                // its parts stand for (the pixel filter is a box on the image, not on the
+                // surface).
+                QuadFrame::new_many(&exact_quads, &mut exact_frames);
+                for (&(j, grow), frame) in exact_owners.iter().zip(&exact_frames) {
+                    let q = &mut centred_queries[j];
+                    let (x, f) = (q.position, q.footprint);
+                    q.exact = frame.map(|frame| {
+                        ExactFootprint::with_frame(frame, grow).seen_from(
+                            camera.eye,
+                            camera.forward,
+                            x,
+                            &f,
+                        )
+                    });
                 }
                 // Every estimator answers the packet's gathers at once; the answers are added
                 // in the order vertex by vertex, estimator by estimator.
