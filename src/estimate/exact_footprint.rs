@@ -14,8 +14,13 @@
 //! the light tracer (which splats each path with that very Jacobian) and against the photons
 //! themselves binned the same way.
 
-use crate::geometry::disc_integral::quad::QuadFrame;
+use crate::geometry::disc_integral::quad_frame::{FrameNumbers, QuadFrame};
+use crate::geometry::lanes::splat3;
 use glam::{DVec2, DVec3};
+
+mod prepare;
+pub use prepare::FootprintRequest;
+use prepare::{Basis, Weights};
 
 /// The exact view footprint of a gather: the quadrilateral of the pixel's (or cell's) corner
 /// rays on the hit's tangent plane, in the coordinates of the first-order parallelogram
@@ -43,52 +48,21 @@ impl ExactFootprint {
     /// query point `x`, weighted uniformly over surface area, or `None` for a degenerate
     /// parallelogram, or a quadrilateral that is not convex or reaches past twice the
     /// parallelogram (a perspective quadrilateral differs from the first-order parallelogram
-    /// to second order).
+    /// to second order). [`ExactFootprint::prepare_many`] prepares many at once.
     pub fn new(corners: &[DVec3; 4], x: DVec3, footprint: &[DVec3; 2]) -> Option<Self> {
-        let (coordinates, grow) = Self::in_basis(corners, x, footprint)?;
-        Some(Self::with_frame(QuadFrame::new(coordinates)?, grow))
+        let basis = Basis::of(
+            corners.map(|c| c.to_array()),
+            x.to_array(),
+            footprint.map(|f| f.to_array()),
+        );
+        let grow = basis.grow()?;
+        let numbers = FrameNumbers::of(basis.alpha, basis.beta);
+        let frame = QuadFrame::from_numbers(basis.alpha, basis.beta, &numbers)?;
+        Some(ExactFootprint::uniform(frame, grow))
     }
 
-    /// [`ExactFootprint::new`]'s first half: the corners' coordinates in the basis `(f[0],
-    /// f[1])` about `x`, and the growth of the parallelogram that holds them; `None` where
-    /// `new` gives `None` for want of a parallelogram or for a quadrilateral reaching past
-    /// twice it. (Its frame, the second half, is [`QuadFrame::new`] of the coordinates, which
-    /// [`QuadFrame::new_many`] prepares for many footprints at once.)
-    pub fn in_basis(
-        corners: &[DVec3; 4],
-        x: DVec3,
-        footprint: &[DVec3; 2],
-    ) -> Option<([DVec2; 4], f64)> {
-        let f = footprint;
-        // Coordinates in the basis (f0, f1) from the Gram system.
-        let (g00, g01, g11) = (f[0].dot(f[0]), f[0].dot(f[1]), f[1].dot(f[1]));
-        let det = g00 * g11 - g01 * g01;
-        if det.is_nan() || det <= 1e-12 * g00 * g11 || !det.is_finite() {
-            return None;
-        }
-        let inv_det = 1.0 / det;
-        let coordinates = corners.map(|c| {
-            let w = c - x;
-            let (b0, b1) = (w.dot(f[0]), w.dot(f[1]));
-            DVec2::new(
-                (g11 * b0 - g01 * b1) * inv_det,
-                (g00 * b1 - g01 * b0) * inv_det,
-            )
-        });
-        let grow = coordinates
-            .iter()
-            .fold(1.0f64, |g, c| g.max(2.0 * c.x.abs().max(c.y.abs())));
-        // A little over, for rounding.
-        let grow = grow * (1.0 + 1e-4);
-        if grow.is_nan() || grow >= 4.0 {
-            return None;
-        }
-        Some((coordinates, grow))
-    }
-
-    /// The footprint of [`ExactFootprint::in_basis`]'s growth with the frame of its
-    /// coordinates, weighted uniformly over surface area.
-    pub fn with_frame(frame: QuadFrame, grow: f64) -> Self {
+    /// Weighted uniformly over surface area.
+    fn uniform(frame: QuadFrame, grow: f64) -> Self {
         ExactFootprint {
             frame,
             grow,
@@ -102,34 +76,25 @@ impl ExactFootprint {
     /// surface area, `depth^-3` to first order about `x` (`1 - 3 forward . (y - x) / depth(x)`;
     /// the second-order term is ~1e-5 of a pixel's weight at a pixel's size). Unchanged where
     /// the depth is not positive and finite.
-    pub fn seen_from(
-        mut self,
-        eye: DVec3,
-        forward: DVec3,
-        x: DVec3,
-        footprint: &[DVec3; 2],
-    ) -> Self {
-        let depth = forward.dot(x - eye);
-        let scale = -3.0 / depth;
-        let g = footprint.map(|f| scale * forward.dot(f));
-        let mean = 1.0 + g[0] * self.frame.centroid().x + g[1] * self.frame.centroid().y;
-        if depth > 0.0 && mean > 0.0 && mean.is_finite() {
-            let inv_mean = 1.0 / mean;
-            let w = [inv_mean, g[0] * inv_mean, g[1] * inv_mean];
-            self.weight = w;
-            let centre = self.frame.centre();
-            let [m_a, m_b, m_aa, m_ab, m_bb, m_aaa, m_aab, m_abb, m_bbb] =
-                self.frame.centred_moments();
-            let along = |x: f64, y: f64| w[1] * x + w[2] * y;
-            self.inside = [
-                w[0] + w[1] * centre.x + w[2] * centre.y,
-                along(m_a, m_b),
-                along(m_aa, m_ab),
-                along(m_ab, m_bb),
-                along(m_aaa, m_aab),
-                along(m_aab, m_abb),
-                along(m_abb, m_bbb),
-            ];
+    pub fn seen_from(self, eye: DVec3, forward: DVec3, x: DVec3, footprint: &[DVec3; 2]) -> Self {
+        let frame = &self.frame;
+        let weights = Weights::of(
+            splat3(eye),
+            splat3(forward),
+            x.to_array(),
+            footprint.map(|f| f.to_array()),
+            frame.centroid().to_array(),
+            frame.centre().to_array(),
+            frame.centred_moments(),
+        );
+        self.weighted(&weights)
+    }
+
+    /// With `weights` where they hold (a positive, finite depth and mean).
+    fn weighted(mut self, weights: &Weights<f64>) -> Self {
+        if weights.depth > 0.0 && weights.mean > 0.0 && weights.mean.is_finite() {
+            self.weight = weights.weight;
+            self.inside = weights.inside;
         }
         self
     }

@@ -16,7 +16,7 @@ pub mod pd;
 pub mod select;
 
 pub use coplanar::CoplanarEstimate;
-pub use exact_footprint::ExactFootprint;
+pub use exact_footprint::{ExactFootprint, FootprintRequest};
 pub use final_gather::FinalGather;
 pub use integrated::IntegratedEstimate;
 pub use jensen::JensenEstimate;

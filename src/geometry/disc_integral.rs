@@ -48,8 +48,6 @@
 //! the centre, which is the photon-differential estimate.
 
 use glam::DVec2;
-use std::ops::{Add, Div, Mul, Neg, Sub};
-use wide::{f64x4, f64x8};
 
 /// Parallelograms whose edge vectors satisfy `|a|^2 + |b|^2 < POINT_SIZE^2` are points: the mean
 /// of the kernel over them is its value at the centre (the kernel's gradient is at most 2, so
@@ -61,103 +59,7 @@ pub const POINT_SIZE: f64 = 1e-5;
 /// cancellation error is about `1e-16 / width`.
 pub const MIN_WIDTH: f64 = 1e-5;
 
-/// Arithmetic the general formula needs, for one value ([`f64`]) and four or eight in SIMD
-/// lanes ([`f64x4`], [`f64x8`]), so that the scalar and batched versions are one formula.
-pub trait Lane:
-    Copy
-    + Add<Output = Self>
-    + Sub<Output = Self>
-    + Mul<Output = Self>
-    + Div<Output = Self>
-    + Neg<Output = Self>
-{
-    /// `x` in every lane.
-    fn splat(x: f64) -> Self;
-    /// Square root.
-    fn sqrt(self) -> Self;
-    /// Lane-wise maximum.
-    fn max(self, o: Self) -> Self;
-    /// Lane-wise minimum.
-    fn min(self, o: Self) -> Self;
-    /// Absolute value.
-    fn abs(self) -> Self;
-    /// `atan2(self, x)`.
-    fn atan2(self, x: Self) -> Self;
-    /// `-self` where `sign` is negative, else `self`.
-    fn negate_where_negative(self, sign: Self) -> Self;
-    /// `self` where `test` is positive, else `other`.
-    fn where_positive_else(self, test: Self, other: Self) -> Self;
-}
-
-impl Lane for f64 {
-    fn splat(x: f64) -> Self {
-        x
-    }
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
-    fn max(self, o: Self) -> Self {
-        f64::max(self, o)
-    }
-    fn min(self, o: Self) -> Self {
-        f64::min(self, o)
-    }
-    fn abs(self) -> Self {
-        f64::abs(self)
-    }
-    fn atan2(self, x: Self) -> Self {
-        f64::atan2(self, x)
-    }
-    fn negate_where_negative(self, sign: Self) -> Self {
-        if sign < 0.0 {
-            -self
-        } else {
-            self
-        }
-    }
-    fn where_positive_else(self, test: Self, other: Self) -> Self {
-        if test > 0.0 {
-            self
-        } else {
-            other
-        }
-    }
-}
-
-/// The SIMD lane types: four lanes (one AVX register) and eight (one AVX-512 register, or
-/// two AVX halves where the machine has no AVX-512).
-macro_rules! simd_lane {
-    ($t:ident) => {
-        impl Lane for $t {
-            fn splat(x: f64) -> Self {
-                $t::splat(x)
-            }
-            fn sqrt(self) -> Self {
-                $t::sqrt(self)
-            }
-            fn max(self, o: Self) -> Self {
-                $t::max(self, o)
-            }
-            fn min(self, o: Self) -> Self {
-                $t::min(self, o)
-            }
-            fn abs(self) -> Self {
-                $t::abs(self)
-            }
-            fn atan2(self, x: Self) -> Self {
-                $t::atan2(self, x)
-            }
-            fn negate_where_negative(self, sign: Self) -> Self {
-                sign.simd_lt($t::ZERO).bitselect(-self, self)
-            }
-            fn where_positive_else(self, test: Self, other: Self) -> Self {
-                test.simd_gt($t::ZERO).bitselect(self, other)
-            }
-        }
-    };
-}
-simd_lane!(f64x4);
-simd_lane!(f64x8);
+pub use super::lanes::Lane;
 
 /// The flux of `F` through one side of the fan triangle `(0, start, end)` ∩ `D`: the side lies
 /// on the line at signed distance `h` (outward) from the origin and runs over `t in [t0, t1]`.

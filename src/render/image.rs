@@ -6,8 +6,9 @@
 //! number of threads.
 
 use crate::embree::{self, Hit, Ray, PACKET_WIDTH};
-use crate::estimate::{ExactFootprint, GatherCounts, GatherQuery, RadianceEstimator};
-use crate::geometry::disc_integral::quad_frame::QuadFrame;
+use crate::estimate::{
+    ExactFootprint, FootprintRequest, GatherCounts, GatherQuery, RadianceEstimator,
+};
 use crate::geometry::surface::facing;
 use crate::render::camera_path::{DiffuseVertex, PathTally, ViewPaths};
 use crate::render::direct_light::DirectLight;
@@ -376,9 +377,9 @@ impl<'a> TileRenderer<'a> {
         // integrate the view footprint see them, with their shares, and the answers.
         let (mut queries, mut centred_queries) = (Vec::new(), Vec::new());
         let (mut shares, mut answers) = (Vec::new(), Vec::new());
-        // The packet's exact footprints: their quadrilaterals, which gather each is and its
-        // growth, their frames.
-        let (mut exact_quads, mut exact_owners, mut exact_frames) =
+        // The packet's exact footprints: what each is prepared from, whose it is, the
+        // footprints.
+        let (mut exact_requests, mut exact_owners, mut exact_footprints) =
             (Vec::new(), Vec::new(), Vec::new());
         // One random stream per tile, seeded by the run's seed and the tile's first pixel:
         // independent of which thread renders the tile.
@@ -416,7 +417,7 @@ impl<'a> TileRenderer<'a> {
                 queries.clear();
                 centred_queries.clear();
                 shares.clear();
-                exact_quads.clear();
+                exact_requests.clear();
                 exact_owners.clear();
                 for (j, v) in vertices.iter().enumerate() {
                     let query = GatherQuery {
@@ -433,18 +434,17 @@ impl<'a> TileRenderer<'a> {
                         centred.position -= v.ray.dp[0] * (jx - 0.5) + v.ray.dp[1] * (jy - 0.5);
                     }
                     // The cell's exact footprint where the hit is seen directly, once for
-                    // every estimator that integrates over it: its corners here, its frame
-                    // below with the packet's others.
+                    // every estimator that integrates over it: prepared below with the
+                    // packet's others.
                     if wants_exact && v.depth == 0 {
-                        let (cell, n) = (chunk[v.sample].4, v.hit.geometric_normal);
-                        let (x, f) = (centred.position, &v.ray.dp);
-                        if let Some((quad, grow)) = camera
-                            .rectangle_on_plane(cell, v.hit.position, n)
-                            .and_then(|c| ExactFootprint::in_basis(&c, x, f))
-                        {
-                            exact_quads.push(quad);
-                            exact_owners.push((j, grow));
-                        }
+                        exact_requests.push(FootprintRequest {
+                            cell: chunk[v.sample].4,
+                            point: v.hit.position,
+                            normal: v.hit.geometric_normal,
+                            x: centred.position,
+                            footprint: v.ray.dp,
+                        });
+                        exact_owners.push(j);
                     }
                     queries.push(query);
                     centred_queries.push(centred);
@@ -452,21 +452,11 @@ impl<'a> TileRenderer<'a> {
                     // (1 for the view grid's own cells).
                     shares.push((view_grid as f64 / chunk[v.sample].3 as f64).powi(2));
                 }
-                // The exact footprints' frames in SIMD lanes, each weighted by the image area
-                // its parts stand for (the pixel filter is a box on the image, not on the
-                // surface).
-                QuadFrame::new_many(&exact_quads, &mut exact_frames);
-                for (&(j, grow), frame) in exact_owners.iter().zip(&exact_frames) {
-                    let q = &mut centred_queries[j];
-                    let (x, f) = (q.position, q.footprint);
-                    q.exact = frame.map(|frame| {
-                        ExactFootprint::with_frame(frame, grow).seen_from(
-                            camera.eye,
-                            camera.forward,
-                            x,
-                            &f,
-                        )
-                    });
+                // The exact footprints in SIMD lanes, each weighted by the image area its
+                // parts stand for (the pixel filter is a box on the image, not on the surface).
+                ExactFootprint::prepare_many(camera, &exact_requests, &mut exact_footprints);
+                for (&j, exact) in exact_owners.iter().zip(&exact_footprints) {
+                    centred_queries[j].exact = *exact;
                 }
                 // Every estimator answers the packet's gathers at once; the answers are added
                 // in the order vertex by vertex, estimator by estimator.

@@ -1,6 +1,7 @@
 //! The pinhole camera and its ray differentials.
 
 use crate::geometry::differential::RayDifferential;
+use crate::geometry::lanes::{add, dot, scale, splat3, sub, Lane, V3};
 use glam::DVec3;
 
 /// A pinhole camera. Pixel `(0, 0)` is the top-left; pixel `(i, j)` covers
@@ -114,27 +115,50 @@ impl Camera {
     /// the plane as the pixels tile the image.
     pub fn rectangle_on_plane(
         &self,
-        [x0, y0, x1, y1]: [f64; 4],
+        cell: [f64; 4],
         point: DVec3,
         normal: DVec3,
     ) -> Option<[DVec3; 4]> {
-        let depth = (point - self.eye).dot(normal);
-        // The corners' screen coordinates once each (as `direction` computes them: a corner
-        // shared with a neighbour comes out the same), two columns and two rows.
-        let (sx, sy) = (
+        let (sx, sy) = self.screen_rectangle(cell);
+        let (corners, t) = self.corners_on_plane(sx, sy, point.to_array(), normal.to_array());
+        t.iter()
+            .all(|&t| t > 0.0 && t.is_finite())
+            .then(|| corners.map(DVec3::from_array))
+    }
+
+    /// The screen coordinates of the rectangle `[x0, x1] x [y0, y1]`'s two columns and two rows
+    /// (as `direction` computes them: a corner shared with a neighbour comes out the same).
+    pub fn screen_rectangle(&self, [x0, y0, x1, y1]: [f64; 4]) -> ([f64; 2], [f64; 2]) {
+        (
             [self.screen_x(x0), self.screen_x(x1)],
             [self.screen_y(y0), self.screen_y(y1)],
-        );
-        let mut corners = [DVec3::ZERO; 4];
-        for (corner, (i, j)) in corners.iter_mut().zip([(0, 0), (1, 0), (1, 1), (0, 1)]) {
-            let d = self.toward(sx[i], sy[j]);
-            let t = depth / d.dot(normal);
-            if !(t > 0.0 && t.is_finite()) {
-                return None;
-            }
-            *corner = self.eye + d * t;
+        )
+    }
+
+    /// [`Camera::rectangle_on_plane`] in any lanes, from the rectangle's screen coordinates
+    /// ([`Camera::screen_rectangle`]): the four corners and each corner's ray parameter `t`
+    /// (a corner stands where `t > 0` and finite; elsewhere its ray runs parallel to the plane
+    /// or meets it behind the eye).
+    #[inline(always)]
+    pub fn corners_on_plane<T: Lane>(
+        &self,
+        sx: [T; 2],
+        sy: [T; 2],
+        point: V3<T>,
+        normal: V3<T>,
+    ) -> ([V3<T>; 4], [T; 4]) {
+        let eye = splat3(self.eye);
+        let depth = dot(sub(point, eye), normal);
+        let (forward, right, up) = (splat3(self.forward), splat3(self.right), splat3(self.up));
+        let mut corners = [[T::splat(0.0); 3]; 4];
+        let mut t = [T::splat(0.0); 4];
+        for (k, (i, j)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
+            // `Camera::toward`, in lanes.
+            let d = add(add(forward, scale(right, sx[i])), scale(up, sy[j]));
+            t[k] = depth / dot(d, normal);
+            corners[k] = add(eye, scale(d, t[k]));
         }
-        Some(corners)
+        (corners, t)
     }
 
     /// Continuous pixel coordinates where `point` projects, or `None` behind the camera.

@@ -3,7 +3,7 @@
 //! ([`QuadFrame::classify`]).
 
 use super::quad::QuadOverlap;
-use super::rows::{Wide, LANES};
+use super::rows::Wide;
 use super::{Lane, POINT_SIZE};
 use glam::DVec2;
 use std::f64::consts::{FRAC_PI_2, PI};
@@ -36,37 +36,30 @@ impl QuadFrame {
     /// is strictly convex with finite coordinates.
     pub fn new(v: [DVec2; 4]) -> Option<Self> {
         let (alpha, beta) = (v.map(|p| p.x), v.map(|p| p.y));
-        Self::checked(alpha, beta, frame_numbers(alpha, beta))
+        Self::from_numbers(alpha, beta, &FrameNumbers::of(alpha, beta))
     }
 
-    /// [`QuadFrame::new`] for each of `quads`, [`LANES`] at a time in SIMD lanes (a packet's
-    /// gathers prepare their footprints together): `out` gets one frame per quadrilateral,
-    /// each equal to [`QuadFrame::new`]'s bit for bit (the same formula, lane by lane).
-    pub fn new_many(quads: &[[DVec2; 4]], out: &mut Vec<Option<Self>>) {
-        out.clear();
-        // Padding: the unit square.
-        let square = [DVec2::ZERO, DVec2::X, DVec2::ONE, DVec2::Y];
-        for chunk in quads.chunks(LANES) {
-            let lane = |k: usize| chunk.get(k).unwrap_or(&square);
-            let x = std::array::from_fn(|i| Wide::from(std::array::from_fn(|k| lane(k)[i].x)));
-            let y = std::array::from_fn(|i| Wide::from(std::array::from_fn(|k| lane(k)[i].y)));
-            let numbers = frame_numbers::<Wide>(x, y).map(|n| n.to_array());
-            out.extend(chunk.iter().enumerate().map(|(k, q)| {
-                Self::checked(q.map(|p| p.x), q.map(|p| p.y), numbers.map(|n| n[k]))
-            }));
-        }
-    }
-
-    /// The frame of [`frame_numbers`], unless the quadrilateral is not finite or not strictly
-    /// convex.
-    fn checked(alpha: [f64; 4], beta: [f64; 4], numbers: [f64; NUMBERS]) -> Option<Self> {
-        if !alpha.iter().chain(&beta).all(|c| c.is_finite()) {
-            return None;
-        }
-        let [cx, cy, area, t0, t1, t2, t3, spread2, moments @ .., _, _, _, _, _, _, _, _, _] =
-            numbers;
-        let centred: [f64; 9] = std::array::from_fn(|k| numbers[NUMBERS - 9 + k]);
-        if area == 0.0 || area.is_nan() || ![t0, t1, t2, t3].iter().all(|t| t * area > 0.0) {
+    /// The frame of the quadrilateral `(alpha[k], beta[k])` from its numbers
+    /// ([`FrameNumbers::of`], computed alone or in SIMD lanes), unless it is not finite or not
+    /// strictly convex.
+    pub fn from_numbers(
+        alpha: [f64; 4],
+        beta: [f64; 4],
+        numbers: &FrameNumbers<f64>,
+    ) -> Option<Self> {
+        let &FrameNumbers {
+            centre: [cx, cy],
+            area,
+            turns,
+            spread2,
+            moments,
+            centred,
+        } = numbers;
+        if !alpha.iter().chain(&beta).all(|c| c.is_finite())
+            || area == 0.0
+            || area.is_nan()
+            || !turns.iter().all(|t| t * area > 0.0)
+        {
             return None;
         }
         Some(QuadFrame {
@@ -194,32 +187,85 @@ impl QuadFrame {
     }
 }
 
-/// How many numbers [`frame_numbers`] gives.
-const NUMBERS: usize = 8 + 5 + 9;
+/// What a [`QuadFrame`] is computed from, in any lane type (one quadrilateral, or one a lane),
+/// before the checks that [`QuadFrame::from_numbers`] makes one at a time.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameNumbers<T> {
+    /// Mean of the vertices.
+    pub centre: [T; 2],
+    /// Signed area.
+    pub area: T,
+    /// The cross products of consecutive sides, at each vertex: all of the area's sign where
+    /// the quadrilateral is strictly convex.
+    pub turns: [T; 4],
+    /// The largest squared distance of a vertex from the centre.
+    pub spread2: T,
+    /// Area means about the origin ([`QuadFrame`]'s `moments`).
+    pub moments: [T; 5],
+    /// Area means about the centre ([`QuadFrame`]'s `centred`).
+    pub centred: [T; 9],
+}
 
-/// A frame's numbers for the quadrilateral `(x[k], y[k])`, in any lane type: its centre (2), its
-/// signed area, the turns at its four vertices (the cross products of consecutive sides: all of
-/// the area's sign where it is strictly convex), the largest squared distance of a vertex from
-/// the centre, the area means about the origin ([`QuadFrame`]'s `moments`, 5) and about the
-/// centre (`centred`, 9). Not checked: a degenerate quadrilateral gives non-finite numbers, which
-/// [`QuadFrame::checked`] refuses.
+impl FrameNumbers<Wide> {
+    /// Lane `k`'s numbers.
+    pub fn lane(&self, k: usize) -> FrameNumbers<f64> {
+        let at = |v: Wide| v.to_array()[k];
+        FrameNumbers {
+            centre: self.centre.map(at),
+            area: at(self.area),
+            turns: self.turns.map(at),
+            spread2: at(self.spread2),
+            moments: self.moments.map(at),
+            centred: self.centred.map(at),
+        }
+    }
+}
+
+impl<T: Lane> FrameNumbers<T> {
+    /// The numbers of the quadrilateral `(x[k], y[k])`. Not checked: a degenerate
+    /// quadrilateral gives non-finite numbers, which [`QuadFrame::from_numbers`] refuses.
+    #[inline(always)]
+    pub fn of(x: [T; 4], y: [T; 4]) -> Self {
+        let quarter = T::splat(0.25);
+        let (cx, cy) = (
+            (x[0] + x[1] + x[2] + x[3]) * quarter,
+            (y[0] + y[1] + y[2] + y[3]) * quarter,
+        );
+        // About the centre: exact for any placement of the quadrilateral.
+        let (wx, wy) = (x.map(|x| x - cx), y.map(|y| y - cy));
+        let perp = |ax: T, ay: T, bx: T, by: T| ax * by - ay * bx;
+        let cross: [T; 4] =
+            std::array::from_fn(|k| perp(wx[k], wy[k], wx[(k + 1) % 4], wy[(k + 1) % 4]));
+        let area = T::splat(0.5) * (T::splat(0.0) + cross[0] + cross[1] + cross[2] + cross[3]);
+        let turns: [T; 4] = std::array::from_fn(|k| {
+            let (i, j, l) = ((k + 1) % 4, (k + 2) % 4, k);
+            perp(wx[i] - wx[l], wy[i] - wy[l], wx[j] - wx[i], wy[j] - wy[i])
+        });
+        let centred = centred_moments(wx, wy, cross, area);
+        // Moments about the origin from those about the centre.
+        let [mx, my, mxx, mxy, myy, ..] = centred;
+        let two = T::splat(2.0);
+        FrameNumbers {
+            centre: [cx, cy],
+            area,
+            turns,
+            spread2: (0..4).fold(T::splat(0.0), |m, k| m.max(wx[k] * wx[k] + wy[k] * wy[k])),
+            moments: [
+                cx + mx,
+                cy + my,
+                mxx + two * cx * mx + cx * cx,
+                mxy + cx * my + cy * mx + cx * cy,
+                myy + two * cy * my + cy * cy,
+            ],
+            centred,
+        }
+    }
+}
+
+/// The area means about the centre of the quadrilateral `(wx[k], wy[k])` (vertices about its
+/// centre, with the cross products `cross[k]` of consecutive vertices and its `area`).
 #[inline(always)]
-fn frame_numbers<T: Lane>(x: [T; 4], y: [T; 4]) -> [T; NUMBERS] {
-    let quarter = T::splat(0.25);
-    let (cx, cy) = (
-        (x[0] + x[1] + x[2] + x[3]) * quarter,
-        (y[0] + y[1] + y[2] + y[3]) * quarter,
-    );
-    // About the centre: exact for any placement of the quadrilateral.
-    let (wx, wy) = (x.map(|x| x - cx), y.map(|y| y - cy));
-    let perp = |ax: T, ay: T, bx: T, by: T| ax * by - ay * bx;
-    let cross: [T; 4] =
-        std::array::from_fn(|k| perp(wx[k], wy[k], wx[(k + 1) % 4], wy[(k + 1) % 4]));
-    let area = T::splat(0.5) * (T::splat(0.0) + cross[0] + cross[1] + cross[2] + cross[3]);
-    let turns: [T; 4] = std::array::from_fn(|k| {
-        let (i, j, l) = ((k + 1) % 4, (k + 2) % 4, k);
-        perp(wx[i] - wx[l], wy[i] - wy[l], wx[j] - wx[i], wy[j] - wy[i])
-    });
+fn centred_moments<T: Lane>(wx: [T; 4], wy: [T; 4], cross: [T; 4], area: T) -> [T; 9] {
     // Polygon moments by Green's theorem, fan triangle (0, p, q) by fan triangle; each sum's
     // constant denominator and the area divided out once at the end (the divisions were most
     // of the cost of a frame, prepared once per gather).
@@ -249,69 +295,5 @@ fn frame_numbers<T: Lane>(x: [T; 4], y: [T; 4]) -> [T; NUMBERS] {
     }
     let inv_area = T::splat(1.0) / area;
     let denominators = [6.0, 6.0, 12.0, 24.0, 12.0, 20.0, 60.0, 60.0, 20.0];
-    let centred: [T; 9] =
-        std::array::from_fn(|k| sums[k] * (inv_area * T::splat(1.0 / denominators[k])));
-    // Moments about the origin from those about the centre.
-    let [mx, my, mxx, mxy, myy, ..] = centred;
-    let spread2 = (0..4).fold(T::splat(0.0), |m, k| m.max(wx[k] * wx[k] + wy[k] * wy[k]));
-    let head = [
-        cx,
-        cy,
-        area,
-        turns[0],
-        turns[1],
-        turns[2],
-        turns[3],
-        spread2,
-        cx + mx,
-        cy + my,
-        mxx + two * cx * mx + cx * cx,
-        mxy + cx * my + cy * mx + cx * cy,
-        myy + two * cy * my + cy * cy,
-    ];
-    std::array::from_fn(|k| if k < 13 { head[k] } else { centred[k - 13] })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::util::rng::Rng;
-
-    #[test]
-    fn frames_prepared_together_equal_frames_prepared_alone() {
-        // Perspective-like quadrilaterals, with folded, flat and non-finite ones among them,
-        // in batches of every length about the lane count (partly filled lanes included).
-        let mut rng = Rng::new(7, 0);
-        let mut quads = Vec::new();
-        for k in 0..61 {
-            let mut v = [
-                DVec2::new(-0.5, -0.5),
-                DVec2::new(0.5, -0.5),
-                DVec2::new(0.5, 0.5),
-                DVec2::new(-0.5, 0.5),
-            ];
-            for p in &mut v {
-                *p += DVec2::new(rng.uniform() - 0.5, rng.uniform() - 0.5) * 0.2;
-                *p = *p * (1.0 + 10.0 * rng.uniform()) + DVec2::splat(3.0 * k as f64);
-            }
-            match k % 9 {
-                3 => v.swap(1, 2),
-                5 => v[2] = (v[1] + v[3]) * 0.5,
-                7 => v[k % 4].x = f64::NAN,
-                8 => v.reverse(),
-                _ => {}
-            }
-            quads.push(v);
-        }
-        let mut frames = Vec::new();
-        for len in [0, 1, LANES - 1, LANES, LANES + 1, quads.len()] {
-            QuadFrame::new_many(&quads[..len], &mut frames);
-            assert_eq!(frames.len(), len);
-            for (q, f) in quads.iter().zip(&frames) {
-                assert_eq!(*f, QuadFrame::new(*q), "{q:?}");
-            }
-        }
-        let made = frames.iter().filter(|f| f.is_some()).count();
-        assert!(made > 30 && made < quads.len(), "{made}");
-    }
+    std::array::from_fn(|k| sums[k] * (inv_area * T::splat(1.0 / denominators[k])))
 }

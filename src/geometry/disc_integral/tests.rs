@@ -225,7 +225,7 @@ fn simd_lanes_equal_the_scalar_formula() {
             DVec2::new(0.0, 1.0),
         ),
     ];
-    let lanes = |f: fn(&(DVec2, DVec2, DVec2)) -> f64| f64x4::from(cases.map(|c| f(&c)));
+    let lanes = |f: fn(&(DVec2, DVec2, DVec2)) -> f64| wide::f64x4::from(cases.map(|c| f(&c)));
     let (integral, area) = general(
         lanes(|c| c.0.x),
         lanes(|c| c.0.y),
