@@ -37,7 +37,7 @@ pub struct ExactFootprint {
     /// `x + alpha f[0] + beta f[1]`, scaled so that its mean over the quadrilateral is 1
     /// (`[1, 0, 0]`, uniform, unless [`ExactFootprint::seen_from`] set it).
     pub weight: [f64; 3],
-    /// [`ExactFootprint::weight_inside`] prepared: the weight at the frame's centre, and the
+    /// [`ExactFootprint::weighted_inside`] prepared: the weight at the frame's centre, and the
     /// weight's gradient against each of the frame's centred moments (`QuadFrame::
     /// kernel_centroid`'s sums, combined over `alpha` and `beta` once per gather).
     inside: [f64; 7],
@@ -112,15 +112,18 @@ impl ExactFootprint {
         [w0 - kx * s.x - ky * s.y, kx, ky]
     }
 
-    /// The weight at the kernel's centroid over the quadrilateral `s + alpha a + beta b` when
-    /// it lies inside the disc and `mean` is the kernel's mean over it: the weight at
-    /// `QuadFrame::kernel_centroid`, a few multiplications a photon.
+    /// `mean` weighted at the kernel's centroid over the quadrilateral `s + alpha a + beta b`
+    /// when it lies inside the disc and `mean` is the kernel's mean over it: `mean` times the
+    /// weight at `QuadFrame::kernel_centroid`, a few multiplications a photon. (The weight at
+    /// the centroid is `base + sum / mean`, the first moment over the mean; times the mean,
+    /// no division is left.) Where `mean <= 0` (no contribution), `mean` times the weight at
+    /// the centre.
     #[inline]
-    pub fn weight_inside(&self, s: DVec2, a: DVec2, b: DVec2, mean: f64) -> f64 {
-        if mean <= 0.0 {
-            return self.inside[0];
-        }
+    pub fn weighted_inside(&self, s: DVec2, a: DVec2, b: DVec2, mean: f64) -> f64 {
         let [base, k1, ka, kb, kaa, kab, kbb] = self.inside;
+        if mean <= 0.0 {
+            return mean * base;
+        }
         let centre = self.frame.centre();
         let c = s + a * centre.x + b * centre.y;
         let sum = (1.0 - c.length_squared()) * k1
@@ -129,7 +132,7 @@ impl ExactFootprint {
             - a.length_squared() * kaa
             - 2.0 * a.dot(b) * kab
             - b.length_squared() * kbb;
-        base + sum / mean
+        mean * base + sum
     }
 
     /// The weight at `(alpha, beta)`: what a photon whose kernel's mass in the footprint has
@@ -177,7 +180,7 @@ mod tests {
                 panic!("{k}: not inside");
             };
             let expected = e.weight_at(e.frame.kernel_centroid(s, a, b, mean));
-            let got = e.weight_inside(s, a, b, mean);
+            let got = e.weighted_inside(s, a, b, mean) / mean;
             assert!((got - expected).abs() <= 1e-12, "{k}: {got} vs {expected}");
             assert!((got - 1.0).abs() > 1e-5, "{k}: {got}");
         }

@@ -162,7 +162,7 @@ impl IntegratedEstimate<'_> {
                 // The quadrilateral inside the disc (or a point to it): weighted at the
                 // kernel's centroid over it.
                 Some((e, QuadOverlap::Mean(mean))) => {
-                    Overlap::Mean(mean * e.weight_inside(s, a, b, mean))
+                    Overlap::Mean(e.weighted_inside(s, a, b, mean))
                 }
                 // The kernel's mass lies about the photon: the image-area weight at its
                 // centre (exact for a weight linear over the footprint).
