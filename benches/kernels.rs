@@ -196,11 +196,11 @@ fn integrated(photons: &[(Vec2, Vec2, Vec2)]) {
         crossing as f64 / scalar / 1e6
     );
     println!(
-        "| multi-sampled 8 x 8 (SIMD f32x8), all photons | {:.1} |",
+        "| multi-sampled 8 x 8 (SIMD f32x16), all photons | {:.1} |",
         n / ms8 / 1e6
     );
     println!(
-        "| multi-sampled 32 x 32 (SIMD f32x8), all photons | {:.1} |",
+        "| multi-sampled 32 x 32 (SIMD f32x16), all photons | {:.1} |",
         n / ms32 / 1e6
     );
 }

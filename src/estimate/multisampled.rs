@@ -6,19 +6,25 @@
 //! `X_ij = x + alpha_i f0 + alpha_j f1` (`alpha_i = (i + 1/2)/N - 1/2`, `f0`, `f1` the view
 //! footprint), the filter-space offset of photon `p` is `s + alpha_i a + alpha_j b` with
 //! `s = M_p (x - x_p)`, `a = M_p f0`, `b = M_p f1`: six numbers per photon. They are laid out as
-//! structure of arrays and evaluated 8 photons at a time in SIMD lanes (`wide::f32x8`), with
+//! structure of arrays and evaluated 16 photons at a time in SIMD lanes (`wide::f32x16`: one
+//! AVX-512 register where the machine has it, two AVX halves elsewhere), with
 //! `r^2 = |u|^2 + beta (2 u.b + beta |b|^2)` for `u = s + alpha a`: two multiply-adds per
-//! evaluation.
+//! evaluation. The lanes fill across a packet's gathers ([`RadianceEstimator::radiance_batch`]):
+//! at the default photon count a gather holds three or four photons, which alone would leave
+//! most of a batch's lanes padding.
 
 use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::photons::map::PhotonMap;
 use glam::{DVec3, Vec2, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
-use wide::f32x8;
+use wide::f32x16;
 
 /// SIMD width of the batched kernel.
-pub const LANES: usize = 8;
+pub const LANES: usize = 16;
+
+/// The batched kernel's lanes.
+type Lanes = f32x16;
 
 /// Filter-space data of a batch of photons, structure of arrays, padded to a multiple of
 /// [`LANES`] with photons that lie far outside every kernel.
@@ -93,10 +99,10 @@ pub fn kernel_sums(batch: &mut KernelBatch, offsets: &[f32], out: &mut Vec<f32>)
     batch.pad();
     out.clear();
     let load = |v: &[f32], k: usize| {
-        f32x8::from(<[f32; LANES]>::try_from(&v[k..k + LANES]).unwrap_or([0.0; LANES]))
+        Lanes::from(<[f32; LANES]>::try_from(&v[k..k + LANES]).unwrap_or([0.0; LANES]))
     };
-    let one = f32x8::splat(1.0);
-    let zero = f32x8::ZERO;
+    let one = Lanes::splat(1.0);
+    let zero = Lanes::ZERO;
     for k in (0..batch.s0.len()).step_by(LANES) {
         let (s0, s1) = (load(&batch.s0, k), load(&batch.s1, k));
         let (a0, a1) = (load(&batch.a0, k), load(&batch.a1, k));
@@ -104,13 +110,13 @@ pub fn kernel_sums(batch: &mut KernelBatch, offsets: &[f32], out: &mut Vec<f32>)
         let bb = b0 * b0 + b1 * b1;
         let mut acc = zero;
         for &alpha in offsets {
-            let alpha = f32x8::splat(alpha);
+            let alpha = Lanes::splat(alpha);
             let u0 = a0.mul_add(alpha, s0);
             let u1 = a1.mul_add(alpha, s1);
             let uu = u0 * u0 + u1 * u1;
-            let ub2 = (u0 * b0 + u1 * b1) * f32x8::splat(2.0);
+            let ub2 = (u0 * b0 + u1 * b1) * Lanes::splat(2.0);
             for &beta in offsets {
-                let beta = f32x8::splat(beta);
+                let beta = Lanes::splat(beta);
                 let r2 = beta.mul_add(bb.mul_add(beta, ub2), uu);
                 acc += (one - r2).max(zero);
             }
@@ -142,9 +148,12 @@ pub fn kernel_sums_scalar(batch: &KernelBatch, offsets: &[f32], out: &mut Vec<f3
 #[derive(Default)]
 struct Scratch {
     found: Vec<u32>,
-    used: Vec<u32>,
+    /// The photons of `batch`: (query, photon) each.
+    used: Vec<(u32, u32)>,
     batch: KernelBatch,
     sums: Vec<f32>,
+    /// Per query of a batch, the sum of `Phi / A * sum` over its photons.
+    totals: Vec<Vec3>,
 }
 
 thread_local! {
@@ -179,44 +188,64 @@ impl RadianceEstimator for MultiSampledEstimate<'_> {
     }
 
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
-        counts.gathers += 1;
-        let f = [q.footprint[0].as_vec3(), q.footprint[1].as_vec3()];
+        let mut out = [DVec3::ZERO];
+        self.radiance_batch(std::slice::from_ref(q), &[1.0], &mut out, counts);
+        out[0]
+    }
+
+    /// Every query's photons in one kernel batch, so that the SIMD lanes fill across the
+    /// gathers; each photon's sum is its lane's alone, and each query's total is taken in the
+    /// order a lone gather takes it, so the answers equal the gathers' one by one bit for bit.
+    fn radiance_batch(
+        &self,
+        queries: &[GatherQuery],
+        _shares: &[f64],
+        out: &mut [DVec3],
+        counts: &mut GatherCounts,
+    ) {
         SCRATCH.with(|scratch| {
             let scratch = &mut *scratch.borrow_mut();
-            self.map
-                .covering(q.position, &q.footprint, &mut scratch.found);
-            counts.photons_found += scratch.found.len() as u64;
-            let x = q.position.as_vec3();
-            let n = q.normal.as_vec3();
             scratch.batch.clear();
             scratch.used.clear();
-            for &i in &scratch.found {
-                let p = &self.map.photons[i as usize];
-                let v = x - p.position;
-                if !on_query_surface(p, v, n) {
-                    continue;
+            for (j, q) in queries.iter().enumerate() {
+                counts.gathers += 1;
+                let f = [q.footprint[0].as_vec3(), q.footprint[1].as_vec3()];
+                self.map
+                    .covering(q.position, &q.footprint, &mut scratch.found);
+                counts.photons_found += scratch.found.len() as u64;
+                let x = q.position.as_vec3();
+                let n = q.normal.as_vec3();
+                for &i in &scratch.found {
+                    let p = &self.map.photons[i as usize];
+                    let v = x - p.position;
+                    if !on_query_surface(p, v, n) {
+                        continue;
+                    }
+                    let s = Vec2::new(p.m[0].dot(v), p.m[1].dot(v));
+                    let a = Vec2::new(p.m[0].dot(f[0]), p.m[1].dot(f[0]));
+                    let b = Vec2::new(p.m[0].dot(f[1]), p.m[1].dot(f[1]));
+                    // No sample point can fall inside the kernel's unit disc.
+                    if s.length() > 1.0 + 0.5 * (a.length() + b.length()) || !s.is_finite() {
+                        continue;
+                    }
+                    scratch.batch.push(s, a, b);
+                    scratch.used.push((j as u32, i));
                 }
-                let s = Vec2::new(p.m[0].dot(v), p.m[1].dot(v));
-                let a = Vec2::new(p.m[0].dot(f[0]), p.m[1].dot(f[0]));
-                let b = Vec2::new(p.m[0].dot(f[1]), p.m[1].dot(f[1]));
-                // No sample point can fall inside the kernel's unit disc.
-                if s.length() > 1.0 + 0.5 * (a.length() + b.length()) || !s.is_finite() {
-                    continue;
-                }
-                scratch.batch.push(s, a, b);
-                scratch.used.push(i);
             }
             kernel_sums(&mut scratch.batch, &self.offsets, &mut scratch.sums);
-            let mut total = Vec3::ZERO;
-            for (&i, &sum) in scratch.used.iter().zip(&scratch.sums) {
+            scratch.totals.clear();
+            scratch.totals.resize(queries.len(), Vec3::ZERO);
+            for (&(j, i), &sum) in scratch.used.iter().zip(&scratch.sums) {
                 if sum > 0.0 {
                     counts.photons_used += 1;
                     let p = &self.map.photons[i as usize];
-                    total += p.power * (p.inv_area * sum);
+                    scratch.totals[j as usize] += p.power * (p.inv_area * sum);
                 }
             }
             let n2 = (self.grid * self.grid) as f64;
-            q.albedo * (FRAC_1_PI * FRAC_2_PI / n2) * total.as_dvec3()
+            for ((o, q), total) in out.iter_mut().zip(queries).zip(&scratch.totals) {
+                *o = q.albedo * (FRAC_1_PI * FRAC_2_PI / n2) * total.as_dvec3();
+            }
         })
     }
 }
