@@ -30,6 +30,7 @@ impl Prism {
     /// near the axes gains nothing from it, and the test costs a quarter of a node's).
     /// `None` there, and when the parallelogram is degenerate (its edges parallel or zero) or
     /// not finite.
+    #[inline]
     pub fn over(c: DVec3, f: &[DVec3; 2]) -> Option<Prism> {
         let n = f[0].cross(f[1]);
         let den = n.length_squared();
@@ -39,7 +40,8 @@ impl Prism {
         }
         let e = f[0].abs() + f[1].abs();
         let face = (e.x * e.y).max(e.y * e.z).max(e.x * e.z);
-        if face <= THIN * den.sqrt() {
+        // face <= THIN |n|, without the square root.
+        if face * face <= THIN * THIN * den {
             return None;
         }
         let d = [f[1].cross(n) / den, n.cross(f[0]) / den];

@@ -113,7 +113,7 @@ impl QuadFrame {
     /// Settles the quadrilateral `s + alpha a + beta b` against the unit disc where a closed
     /// form does (as [`super::classify`] does for parallelograms) and prepares the rest.
     /// Non-finite input gives [`QuadOverlap::None`].
-    #[inline]
+    #[inline(always)]
     pub fn classify(&self, s: DVec2, a: DVec2, b: DVec2) -> QuadOverlap {
         let c = s + a * self.centre.x + b * self.centre.y;
         // A bound on the squared circumradius about c: |alpha a + beta b|^2 <= (alpha^2 +
