@@ -1,18 +1,19 @@
 //! The exact test behind footprint range queries: whether a photon's kernel may be non-zero
 //! anywhere in a view footprint ([`may_cover`]), and the same test on a BVH leaf's photons (up
-//! to eight) at once in SIMD lanes ([`CoverTable`]).
+//! to sixteen) at once in SIMD lanes ([`CoverTable`]).
 //!
 //! Why a table beside the photons: a query tests about four photons for every one it keeps (box
 //! against box lets through the corners and, for needle-shaped footprints, most of the box), and
 //! testing them one at a time from the 80-byte photons was a sixth of the default render. The
-//! table holds only what the test reads, in leaf slots, so a leaf's photons load as eight lanes
-//! (`f32x8`: one AVX register; a leaf of eight costs what a leaf of four did, and the tree of
-//! leaves of eight is half as large).
+//! table holds only what the test reads, in leaf slots, so a leaf's photons load as sixteen
+//! lanes (`f32x16`: one AVX-512 register here, two AVX halves elsewhere; a leaf of sixteen costs
+//! about what a leaf of eight did, and the tree is half as large: at 1,280,000 photons the render
+//! stage fell 7-9%, at 20,000 it did not move).
 
 use crate::photons::footprint_bvh::LEAF_SIZE;
 use crate::photons::map::Photon;
 use glam::{Vec2, Vec3};
-use wide::f32x8;
+use wide::f32x16;
 
 /// How far off its tangent plane a query point may lie and still see a photon, as a fraction of
 /// the photon's radius (`estimate::on_query_surface`).
@@ -64,7 +65,7 @@ pub fn may_cover(p: &Photon, v: Vec3, f: [Vec3; 2]) -> bool {
 }
 
 /// What [`may_cover`] reads of each photon, as a structure of arrays in the photon map's order
-/// (the footprint BVH's leaf slots), padded so that eight lanes load from any slot.
+/// (the footprint BVH's leaf slots), padded so that a leaf's lanes load from any slot.
 #[derive(Default)]
 pub struct CoverTable {
     /// Position, x, y, z.
@@ -79,14 +80,14 @@ pub struct CoverTable {
 
 /// A view footprint to test photons against: its centre and edges, in every lane.
 pub struct CoverQuery {
-    c: [f32x8; 3],
-    f: [[f32x8; 3]; 2],
+    c: [Lanes; 3],
+    f: [[Lanes; 3]; 2],
 }
 
 impl CoverQuery {
     /// The footprint `c +- f[0]/2 +- f[1]/2`.
     pub fn new(c: Vec3, f: [Vec3; 2]) -> Self {
-        let splat = |v: Vec3| [f32x8::splat(v.x), f32x8::splat(v.y), f32x8::splat(v.z)];
+        let splat = |v: Vec3| [Lanes::splat(v.x), Lanes::splat(v.y), Lanes::splat(v.z)];
         CoverQuery {
             c: splat(c),
             f: [splat(f[0]), splat(f[1])],
@@ -116,13 +117,13 @@ impl CoverTable {
         t
     }
 
-    /// Appends to `out` the slots among `first..first + count` (`count <= 8`, a leaf of the
+    /// Appends to `out` the slots among `first..first + count` (`count <= 16`, a leaf of the
     /// footprint BVH) that [`may_cover`] the footprint of `q`, in order.
     #[inline]
     pub fn leaf(&self, first: usize, count: usize, q: &CoverQuery, out: &mut Vec<u32>) {
         debug_assert!(count <= LANES);
         let load =
-            |c: &Vec<f32>| f32x8::from(<[f32; LANES]>::try_from(&c[first..first + LANES]).unwrap());
+            |c: &Vec<f32>| Lanes::from(<[f32; LANES]>::try_from(&c[first..first + LANES]).unwrap());
         let load3 = |c: &[Vec<f32>; 3]| [load(&c[0]), load(&c[1]), load(&c[2])];
         let (c, f0, f1) = (q.c, q.f[0], q.f[1]);
         let pos = load3(&self.position);
@@ -135,20 +136,20 @@ impl CoverTable {
         let b = [dot(&m0, &f1), dot(&m1, &f1)];
         let (p0, p1) = (a[0] + b[0], a[1] + b[1]);
         let (d0, d1) = (a[0] - b[0], a[1] - b[1]);
-        let reach = f32x8::splat(0.5) * (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1).sqrt();
-        let bound = f32x8::ONE + reach + f32x8::splat(SLACK);
+        let reach = Lanes::splat(0.5) * (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1).sqrt();
+        let bound = Lanes::ONE + reach + Lanes::splat(SLACK);
         reject |= (s[0] * s[0] + s[1] * s[1]).simd_gt(bound * bound);
         // perp_dot(x, y) = x0 y1 - x1 y0.
         let cross = (a[0] * b[1] - a[1] * b[0]).abs();
         for e in [a, b] {
             let len2 = e[0] * e[0] + e[1] * e[1];
             let across = (e[0] * s[1] - e[1] * s[0]).abs();
-            let limit = len2.sqrt() * f32x8::splat(1.0 + SLACK) + f32x8::splat(0.5) * cross;
-            reject |= len2.simd_gt(f32x8::splat(MIN_EDGE_SQUARED)) & across.simd_gt(limit);
+            let limit = len2.sqrt() * Lanes::splat(1.0 + SLACK) + Lanes::splat(0.5) * cross;
+            reject |= len2.simd_gt(Lanes::splat(MIN_EDGE_SQUARED)) & across.simd_gt(limit);
         }
         // Lanes past the leaf are padding.
-        let lane = f32x8::from([0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]);
-        let keep = !reject & lane.simd_le(f32x8::splat(count as f32 - 0.5));
+        let lane = Lanes::from(std::array::from_fn::<f32, LANES, _>(|k| k as f32));
+        let keep = !reject & lane.simd_le(Lanes::splat(count as f32 - 0.5));
         let mut bits = keep.to_bitmask();
         while bits != 0 {
             let k = bits.trailing_zeros() as usize;
@@ -158,11 +159,14 @@ impl CoverTable {
     }
 }
 
-/// Lanes of [`CoverTable::leaf`]: the footprint BVH's largest leaf, one `f32x8`.
+/// Lanes of [`CoverTable::leaf`]: the footprint BVH's largest leaf, one `f32x16`.
 const LANES: usize = LEAF_SIZE;
-const _: () = assert!(LANES == 8, "a leaf is tested in one f32x8");
+const _: () = assert!(LANES == 16, "a leaf is tested in one f32x16");
 
-fn dot(a: &[f32x8; 3], b: &[f32x8; 3]) -> f32x8 {
+/// The cover test's SIMD lanes.
+type Lanes = f32x16;
+
+fn dot(a: &[Lanes; 3], b: &[Lanes; 3]) -> Lanes {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
@@ -226,7 +230,7 @@ mod tests {
             prop_assert!(covers || inside == 0, "{inside} points inside, not covered");
         }
 
-        /// The eight-lane test answers exactly what `may_cover` answers, photon by photon, for
+        /// The sixteen-lane test answers exactly what `may_cover` answers, photon by photon, for
         /// leaves of every size anywhere in the table (padding lanes never answer).
         #[test]
         fn the_table_answers_what_may_cover_answers(

@@ -54,7 +54,7 @@ pub fn footprint_box(p: &Photon) -> Aabb {
 }
 
 /// Photons per leaf at most (the lanes of [`crate::photons::cover::CoverTable::leaf`]).
-pub const LEAF_SIZE: usize = 8;
+pub const LEAF_SIZE: usize = 16;
 
 /// An axis-aligned box.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -126,7 +126,7 @@ const NO_CHILD: u64 = u64::MAX;
 const _: () = assert!(LEAF_SIZE < 1 << COUNT_BITS);
 
 /// Low bits of [`WideNode::entry`] that hold a leaf's count.
-const COUNT_BITS: u32 = 4;
+const COUNT_BITS: u32 = 5;
 
 impl WideNode {
     const EMPTY: WideNode = WideNode {

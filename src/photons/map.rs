@@ -156,7 +156,7 @@ impl PhotonMap {
     /// somewhere in the view footprint `x +- f[0]/2 +- f[1]/2` (zero for a point) for a query
     /// point `x` on their surface: in every BVH leaf whose bounds overlap the footprint's
     /// bounding box, the photons that [`crate::photons::cover::may_cover`] it (tested a leaf,
-    /// up to eight, at a time). Non-finite footprints count as points.
+    /// up to sixteen, at a time). Non-finite footprints count as points.
     pub fn covering(&self, x: DVec3, footprint: &[DVec3; 2], out: &mut Vec<u32>) {
         out.clear();
         let finite = footprint[0].is_finite() && footprint[1].is_finite();

@@ -168,7 +168,9 @@ mod tests {
         let prism = Prism::over(c, &f).expect("a thin footprint gets its prism");
         let (all, kept) = (count(None), count(Some(&prism)));
         assert!(all > 7000, "{all}");
-        assert!((180..600).contains(&kept), "{kept} of {all}");
+        // The needle crosses about 180 boxes; leaves of 16 boxes (4 x 4 of the field) along
+        // it hold some 800, an eighth of what its bounding box visits at most.
+        assert!((180..all / 8).contains(&kept), "{kept} of {all}");
         // A square footprint along the axes is not worth the test.
         assert!(Prism::over(c, &[DVec3::X, DVec3::Z]).is_none());
         assert!(Prism::over(c, &[DVec3::X, DVec3::X * 2.0]).is_none());
