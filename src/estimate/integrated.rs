@@ -32,7 +32,7 @@
 //! (`pd`). The gather asks the map for every photon whose footprint may overlap `V`
 //! ([`PhotonMap::covering`]), as the multi-sampled estimate does.
 
-use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
+use super::{batch_of_one, on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadOverlap};
 use crate::geometry::disc_integral::rows::Rows;
 use crate::geometry::disc_integral::rows::Wide;
@@ -211,9 +211,7 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
     }
 
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
-        let mut out = [DVec3::ZERO];
-        self.radiance_batch(std::slice::from_ref(q), &[1.0], &mut out, counts);
-        out[0]
+        batch_of_one(self, q, counts)
     }
 
     /// Every query's photons first, then the general formula over all of their crossing

@@ -127,6 +127,18 @@ pub trait RadianceEstimator: Sync {
     }
 }
 
+/// One query's answer through [`RadianceEstimator::radiance_batch`], for the estimators whose
+/// batch is their real implementation (a batch of one, share 1).
+pub(crate) fn batch_of_one<E: RadianceEstimator + ?Sized>(
+    estimator: &E,
+    q: &GatherQuery,
+    counts: &mut GatherCounts,
+) -> DVec3 {
+    let mut out = [DVec3::ZERO];
+    estimator.radiance_batch(std::slice::from_ref(q), &[1.0], &mut out, counts);
+    out[0]
+}
+
 /// Photons stored on a surface facing another way than the query's (the other side of a thin
 /// wall, a sharp edge) do not contribute: the cosine between the normals must exceed this.
 pub const MIN_NORMAL_COSINE: f32 = 0.7;

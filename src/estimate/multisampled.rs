@@ -13,7 +13,7 @@
 //! at the default photon count a gather holds three or four photons, which alone would leave
 //! most of a batch's lanes padding.
 
-use super::{on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
+use super::{batch_of_one, on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::photons::map::PhotonMap;
 use glam::{DVec3, Vec2, Vec3};
 use std::cell::RefCell;
@@ -188,9 +188,7 @@ impl RadianceEstimator for MultiSampledEstimate<'_> {
     }
 
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
-        let mut out = [DVec3::ZERO];
-        self.radiance_batch(std::slice::from_ref(q), &[1.0], &mut out, counts);
-        out[0]
+        batch_of_one(self, q, counts)
     }
 
     /// Every query's photons in one kernel batch, so that the SIMD lanes fill across the
