@@ -34,8 +34,7 @@
 
 use super::{batch_of_one, on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadOverlap};
-use crate::geometry::disc_integral::rows::Rows;
-use crate::geometry::disc_integral::rows::Wide;
+use crate::geometry::disc_integral::rows::{Rows, Wide};
 use crate::geometry::disc_integral::{
     classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
 };

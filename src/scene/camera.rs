@@ -75,7 +75,14 @@ impl Camera {
 
     /// `V + sx R + sy U`: [`Camera::direction`] from screen coordinates.
     fn toward(&self, sx: f64, sy: f64) -> DVec3 {
-        self.forward + self.right * sx + self.up * sy
+        DVec3::from_array(self.toward_lanes(sx, sy))
+    }
+
+    /// [`Camera::toward`] in any lanes.
+    #[inline(always)]
+    fn toward_lanes<T: Lane>(&self, sx: T, sy: T) -> V3<T> {
+        let (forward, right, up) = (splat3(self.forward), splat3(self.right), splat3(self.up));
+        add(add(forward, scale(right, sx)), scale(up, sy))
     }
 
     /// `sx` of [`Camera::direction`] at pixel column `x`.
@@ -149,12 +156,10 @@ impl Camera {
     ) -> ([V3<T>; 4], [T; 4]) {
         let eye = splat3(self.eye);
         let depth = dot(sub(point, eye), normal);
-        let (forward, right, up) = (splat3(self.forward), splat3(self.right), splat3(self.up));
         let mut corners = [[T::splat(0.0); 3]; 4];
         let mut t = [T::splat(0.0); 4];
         for (k, (i, j)) in [(0, 0), (1, 0), (1, 1), (0, 1)].into_iter().enumerate() {
-            // `Camera::toward`, in lanes.
-            let d = add(add(forward, scale(right, sx[i])), scale(up, sy[j]));
+            let d = self.toward_lanes(sx[i], sy[j]);
             t[k] = depth / dot(d, normal);
             corners[k] = add(eye, scale(d, t[k]));
         }
