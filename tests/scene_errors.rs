@@ -508,7 +508,11 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
         );
     }
     // 2 * 10^9 photons: over a terabyte at 700 bytes each, beyond any machine this runs on.
-    // The warning comes before the tracing; the run is stopped there.
+    // The warning comes before the tracing; the run is stopped there. (On the canonical scene,
+    // whose glass sphere stores caustic photons, so that the tracing outlasts the test: on a
+    // scene that stores none the run finished, and wrote its maps, before the kill could
+    // land, now and then.)
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/caustic-sphere.toml");
     let mut child = Command::new(exe)
         .arg("photons")
         .arg(&scene)
@@ -518,10 +522,24 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
+    // Should the warning never come, the tracing would run for hours: a watchdog stops it
+    // after a minute (and the assertion below then fails), unless told the line came.
+    let (done, wait) = std::sync::mpsc::channel::<()>();
+    let pid = child.id().to_string();
+    let watchdog = std::thread::spawn(move || {
+        if wait
+            .recv_timeout(std::time::Duration::from_secs(60))
+            .is_err()
+        {
+            let _ = Command::new("kill").arg(&pid).status();
+        }
+    });
     let mut line = String::new();
     BufReader::new(child.stderr.take().unwrap())
         .read_line(&mut line)
         .unwrap();
+    let _ = done.send(());
+    watchdog.join().unwrap();
     child.kill().unwrap();
     child.wait().unwrap();
     let expected = format!(
