@@ -87,10 +87,21 @@ pub fn parallelogram_means_scalar(batch: &ParallelogramBatch, out: &mut Vec<f64>
     }
 }
 
+/// The footprint the map is asked about for query `q`: its parallelogram, grown to hold its
+/// exact footprint (the corners as offsets from the query point) where it has one.
+fn reach(q: &GatherQuery) -> [DVec3; 2] {
+    match &q.exact {
+        Some(e) => q.footprint.map(|f| f * e.grow),
+        None => q.footprint,
+    }
+}
+
 /// Scratch space reused across gathers on one thread.
 #[derive(Default)]
 struct Scratch {
-    found: Vec<u32>,
+    /// Each query's centre and [`reach`], and the photons found for it.
+    requests: Vec<(DVec3, [DVec3; 2])>,
+    found: Vec<Vec<u32>>,
     /// The parallelograms of `batch`: (query, photon) each.
     general: Vec<(u32, u32)>,
     batch: ParallelogramBatch,
@@ -114,13 +125,14 @@ pub struct IntegratedEstimate<'a> {
 }
 
 impl IntegratedEstimate<'_> {
-    /// Gathers query `q` (number `j` of its batch): the photons settled in closed form are
-    /// summed and returned; those that need the general formula join the scratch's batches,
-    /// owned by `j`.
+    /// Gathers query `q` (number `j` of its batch) over the photons `found` for it
+    /// ([`reach`]): the photons settled in closed form are summed and returned; those that need
+    /// the general formula join the scratch's batches, owned by `j`.
     fn gather(
         &self,
         q: &GatherQuery,
         j: u32,
+        found: &[u32],
         scratch: &mut Scratch,
         counts: &mut GatherCounts,
     ) -> Vec3 {
@@ -130,18 +142,13 @@ impl IntegratedEstimate<'_> {
         } else {
             [DVec3::ZERO; 2]
         };
-        // The exact footprint (its corners as offsets from the query point) where the query
-        // has it, and the parallelogram, grown to hold it, that the map is asked about.
         let exact = q.exact.as_ref();
-        let grown = exact.map(|e| q.footprint.map(|f| f * e.grow));
-        let reach = grown.as_ref().unwrap_or(&q.footprint);
         counts.exact_footprints += u64::from(exact.is_some());
-        self.map.covering(q.position, reach, &mut scratch.found);
-        counts.photons_found += scratch.found.len() as u64;
+        counts.photons_found += found.len() as u64;
         let x = q.position.as_vec3();
         let n = q.normal.as_vec3();
         let mut total = Vec3::ZERO;
-        for &i in &scratch.found {
+        for &i in found {
             let p = &self.map.photons[i as usize];
             let v = x - p.position;
             if !on_query_surface(p, v, n) {
@@ -233,10 +240,16 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             scratch.quads.clear();
             scratch.general_quads.clear();
             scratch.totals.clear();
-            for (j, q) in queries.iter().enumerate() {
-                let total = self.gather(q, j as u32, scratch, counts);
+            scratch.requests.clear();
+            let requests = queries.iter().map(|q| (q.position, reach(q)));
+            scratch.requests.extend(requests);
+            let mut found = std::mem::take(&mut scratch.found);
+            self.map.covering_packet(&scratch.requests, &mut found);
+            for ((j, q), found) in queries.iter().enumerate().zip(&found) {
+                let total = self.gather(q, j as u32, found, scratch, counts);
                 scratch.totals.push(total);
             }
+            scratch.found = found;
             parallelogram_means(&mut scratch.batch, &mut scratch.means);
             quad_means(&mut scratch.quads, &mut scratch.quad_means);
             let owners = scratch.general.iter().chain(&scratch.general_quads);

@@ -147,7 +147,9 @@ pub fn kernel_sums_scalar(batch: &KernelBatch, offsets: &[f32], out: &mut Vec<f3
 /// Scratch space reused across gathers on one thread.
 #[derive(Default)]
 struct Scratch {
-    found: Vec<u32>,
+    /// Each query's centre and footprint, and the photons found for it.
+    requests: Vec<(DVec3, [DVec3; 2])>,
+    found: Vec<Vec<u32>>,
     /// The photons of `batch`: (query, photon) each.
     used: Vec<(u32, u32)>,
     batch: KernelBatch,
@@ -205,15 +207,18 @@ impl RadianceEstimator for MultiSampledEstimate<'_> {
             let scratch = &mut *scratch.borrow_mut();
             scratch.batch.clear();
             scratch.used.clear();
-            for (j, q) in queries.iter().enumerate() {
+            scratch.requests.clear();
+            let requests = queries.iter().map(|q| (q.position, q.footprint));
+            scratch.requests.extend(requests);
+            self.map
+                .covering_packet(&scratch.requests, &mut scratch.found);
+            for ((j, q), found) in queries.iter().enumerate().zip(&scratch.found) {
                 counts.gathers += 1;
                 let f = [q.footprint[0].as_vec3(), q.footprint[1].as_vec3()];
-                self.map
-                    .covering(q.position, &q.footprint, &mut scratch.found);
-                counts.photons_found += scratch.found.len() as u64;
+                counts.photons_found += found.len() as u64;
                 let x = q.position.as_vec3();
                 let n = q.normal.as_vec3();
-                for &i in &scratch.found {
+                for &i in found {
                     let p = &self.map.photons[i as usize];
                     let v = x - p.position;
                     if !on_query_surface(p, v, n) {

@@ -79,6 +79,7 @@ pub struct CoverTable {
 }
 
 /// A view footprint to test photons against: its centre and edges, in every lane.
+#[derive(Clone, Copy)]
 pub struct CoverQuery {
     c: [Lanes; 3],
     f: [[Lanes; 3]; 2],
@@ -121,19 +122,70 @@ impl CoverTable {
     /// footprint BVH) that [`may_cover`] the footprint of `q`, in order.
     #[inline]
     pub fn leaf(&self, first: usize, count: usize, q: &CoverQuery, out: &mut Vec<u32>) {
+        let leaf = self.load(first, count);
+        push_slots(first, leaf.covered(q), out);
+    }
+
+    /// [`CoverTable::leaf`] for each query `j` of `queries` in the mask `queries_meeting`,
+    /// into `outs[j]`: the leaf's lanes are loaded once for all of them.
+    #[inline]
+    pub fn leaf_packet(
+        &self,
+        first: usize,
+        count: usize,
+        queries: &[CoverQuery],
+        mut queries_meeting: u32,
+        outs: &mut [Vec<u32>],
+    ) {
+        let leaf = self.load(first, count);
+        while queries_meeting != 0 {
+            let j = queries_meeting.trailing_zeros() as usize;
+            queries_meeting &= queries_meeting - 1;
+            push_slots(first, leaf.covered(&queries[j]), &mut outs[j]);
+        }
+    }
+
+    /// The lanes of the leaf `first..first + count` (`count <= 16`).
+    #[inline(always)]
+    fn load(&self, first: usize, count: usize) -> LeafLanes {
         debug_assert!(count <= LANES);
         let load =
             |c: &Vec<f32>| Lanes::from(<[f32; LANES]>::try_from(&c[first..first + LANES]).unwrap());
         let load3 = |c: &[Vec<f32>; 3]| [load(&c[0]), load(&c[1]), load(&c[2])];
+        // Lanes past the leaf are padding.
+        let lane = Lanes::from(std::array::from_fn::<f32, LANES, _>(|k| k as f32));
+        LeafLanes {
+            position: load3(&self.position),
+            normal: load3(&self.normal),
+            m: [load3(&self.m[0]), load3(&self.m[1])],
+            slab: load(&self.slab),
+            in_leaf: lane.simd_le(Lanes::splat(count as f32 - 0.5)),
+        }
+    }
+}
+
+/// A leaf's photons as the cover test reads them, one photon a lane.
+struct LeafLanes {
+    position: [Lanes; 3],
+    normal: [Lanes; 3],
+    m: [[Lanes; 3]; 2],
+    slab: Lanes,
+    /// Set in the lanes that hold one of the leaf's photons (the rest are padding).
+    in_leaf: Lanes,
+}
+
+impl LeafLanes {
+    /// Bit `k` set where the leaf's photon `k` [`may_cover`] the footprint of `q`.
+    #[inline(always)]
+    fn covered(&self, q: &CoverQuery) -> u32 {
         let (c, f0, f1) = (q.c, q.f[0], q.f[1]);
-        let pos = load3(&self.position);
+        let pos = &self.position;
         let v = [c[0] - pos[0], c[1] - pos[1], c[2] - pos[2]];
-        let n = load3(&self.normal);
-        let mut reject = dot(&n, &v).abs().simd_gt(load(&self.slab));
-        let (m0, m1) = (load3(&self.m[0]), load3(&self.m[1]));
-        let s = [dot(&m0, &v), dot(&m1, &v)];
-        let a = [dot(&m0, &f0), dot(&m1, &f0)];
-        let b = [dot(&m0, &f1), dot(&m1, &f1)];
+        let mut reject = dot(&self.normal, &v).abs().simd_gt(self.slab);
+        let [m0, m1] = &self.m;
+        let s = [dot(m0, &v), dot(m1, &v)];
+        let a = [dot(m0, &f0), dot(m1, &f0)];
+        let b = [dot(m0, &f1), dot(m1, &f1)];
         let (p0, p1) = (a[0] + b[0], a[1] + b[1]);
         let (d0, d1) = (a[0] - b[0], a[1] - b[1]);
         let reach = Lanes::splat(0.5) * (p0 * p0 + p1 * p1).max(d0 * d0 + d1 * d1).sqrt();
@@ -147,15 +199,17 @@ impl CoverTable {
             let limit = len2.sqrt() * Lanes::splat(1.0 + SLACK) + Lanes::splat(0.5) * cross;
             reject |= len2.simd_gt(Lanes::splat(MIN_EDGE_SQUARED)) & across.simd_gt(limit);
         }
-        // Lanes past the leaf are padding.
-        let lane = Lanes::from(std::array::from_fn::<f32, LANES, _>(|k| k as f32));
-        let keep = !reject & lane.simd_le(Lanes::splat(count as f32 - 0.5));
-        let mut bits = keep.to_bitmask();
-        while bits != 0 {
-            let k = bits.trailing_zeros() as usize;
-            out.push((first + k) as u32);
-            bits &= bits - 1;
-        }
+        (!reject & self.in_leaf).to_bitmask()
+    }
+}
+
+/// Appends `first + k` to `out` for each bit `k` of `bits`, lowest first.
+#[inline(always)]
+fn push_slots(first: usize, mut bits: u32, out: &mut Vec<u32>) {
+    while bits != 0 {
+        let k = bits.trailing_zeros() as usize;
+        out.push((first + k) as u32);
+        bits &= bits - 1;
     }
 }
 

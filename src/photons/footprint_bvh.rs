@@ -20,6 +20,9 @@ use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
 use wide::f32x4;
 
+mod packet;
+pub use packet::{PacketBoxes, PACKET_SIZE};
+
 /// The box of every offset `v` from photon `p` at which its kernel may be non-zero: its ellipse
 /// `|M v| < 1` thickened by [`OFF_PLANE_TOLERANCE`] along its normal (a slanted elliptic
 /// cylinder). With `N` the rows `m[0]`, `m[1]`, `n / (t r)`, the cylinder is `N^-1` of the unit

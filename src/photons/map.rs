@@ -4,7 +4,7 @@
 
 use crate::photons::cover::{CoverQuery, CoverTable};
 use crate::photons::footprint::{Footprint, Guards};
-use crate::photons::footprint_bvh::{footprint_box, Aabb, FootprintBvh};
+use crate::photons::footprint_bvh::{footprint_box, Aabb, FootprintBvh, PacketBoxes, PACKET_SIZE};
 use crate::photons::prism::Prism;
 use glam::{DVec3, Vec3};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
@@ -159,21 +159,50 @@ impl PhotonMap {
     /// up to sixteen, at a time). Non-finite footprints count as points.
     pub fn covering(&self, x: DVec3, footprint: &[DVec3; 2], out: &mut Vec<u32>) {
         out.clear();
-        let finite = footprint[0].is_finite() && footprint[1].is_finite();
-        let f = if finite { *footprint } else { [DVec3::ZERO; 2] };
-        let q = CoverQuery::new(x.as_vec3(), [f[0].as_vec3(), f[1].as_vec3()]);
-        // The footprint's own box, not the cube of its reach: seen at a grazing angle a pixel's
-        // footprint is long and thin, and its cube let through photons beside it. (A photon it
-        // covers lies in the footprint's plane, so their boxes share that point.)
-        let half = 0.5 * (f[0].abs() + f[1].abs());
-        let query = rounded_out(x - half, x + half);
-        // And its prism: a thin footprint askew to the axes has a box far larger than itself.
-        let prism = Prism::over(x, &f);
+        let (q, query, prism) = cover_query(x, footprint);
         // The photons are in leaf order, so a leaf's slots are its photons' indices.
         self.bvh
             .leaves_meeting(&query, prism.as_ref(), |first, count| {
                 self.cover.leaf(first, count, &q, out)
             });
+    }
+
+    /// [`PhotonMap::covering`] for each query `(x, footprint)` of `queries`, into `outs[j]`
+    /// for query `j` (`outs` grown to hold them), each the very list `covering` gives. The
+    /// queries go through the BVH sixteen at a time in one walk (neighbouring pixels' gathers
+    /// visit nearly the same nodes and leaves), but for thin footprints, which take their
+    /// prism in a walk of their own.
+    pub fn covering_packet(&self, queries: &[(DVec3, [DVec3; 2])], outs: &mut Vec<Vec<u32>>) {
+        if outs.len() < queries.len() {
+            outs.resize_with(queries.len(), Vec::new);
+        }
+        let no_query = CoverQuery::new(Vec3::ZERO, [Vec3::ZERO; 2]);
+        let mut covers = [no_query; PACKET_SIZE];
+        let mut boxes = [Aabb::EMPTY; PACKET_SIZE];
+        for (queries, outs) in queries
+            .chunks(PACKET_SIZE)
+            .zip(outs.chunks_mut(PACKET_SIZE))
+        {
+            let mut together = 0u32;
+            for (j, ((x, footprint), out)) in queries.iter().zip(outs.iter_mut()).enumerate() {
+                out.clear();
+                let (q, query, prism) = cover_query(*x, footprint);
+                if let Some(prism) = prism {
+                    self.bvh
+                        .leaves_meeting(&query, Some(&prism), |first, count| {
+                            self.cover.leaf(first, count, &q, out)
+                        });
+                } else {
+                    (covers[j], boxes[j]) = (q, query);
+                    together |= 1 << j;
+                }
+            }
+            let packet = PacketBoxes::new(&boxes[..queries.len()], together);
+            self.bvh
+                .leaves_meeting_packet(&packet, |first, count, meeting| {
+                    self.cover.leaf_packet(first, count, &covers, meeting, outs)
+                });
+        }
     }
 
     /// The (at most) `k` nearest photons within `max_radius` of `x`, nearest first, as
@@ -198,6 +227,22 @@ impl PhotonMap {
     }
 }
 
+/// What [`PhotonMap::covering`] asks about the footprint `x +- f[0]/2 +- f[1]/2`: the cover
+/// test's query, the box the BVH is walked with, and the prism of a thin footprint.
+fn cover_query(x: DVec3, footprint: &[DVec3; 2]) -> (CoverQuery, Aabb, Option<Prism>) {
+    let finite = footprint[0].is_finite() && footprint[1].is_finite();
+    let f = if finite { *footprint } else { [DVec3::ZERO; 2] };
+    let q = CoverQuery::new(x.as_vec3(), [f[0].as_vec3(), f[1].as_vec3()]);
+    // The footprint's own box, not the cube of its reach: seen at a grazing angle a pixel's
+    // footprint is long and thin, and its cube let through photons beside it. (A photon it
+    // covers lies in the footprint's plane, so their boxes share that point.)
+    let half = 0.5 * (f[0].abs() + f[1].abs());
+    let query = rounded_out(x - half, x + half);
+    // And its prism: a thin footprint askew to the axes has a box far larger than itself.
+    let prism = Prism::over(x, &f);
+    (q, query, prism)
+}
+
 /// The f32 box that holds the f64 box `lo..hi`.
 fn rounded_out(lo: DVec3, hi: DVec3) -> Aabb {
     let slack = |v: DVec3| {
@@ -207,5 +252,80 @@ fn rounded_out(lo: DVec3, hi: DVec3) -> Aabb {
     Aabb {
         min: lo.as_vec3() - slack(lo),
         max: hi.as_vec3() + slack(hi),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::photons::footprint::{footprint, FootprintLimits};
+    use proptest::prelude::*;
+
+    /// Photons on the plane `y = 0` (a few on `x = 0`), with footprints of every size and shape.
+    fn map_of(photons: &[([f64; 4], bool)]) -> PhotonMap {
+        let limits = FootprintLimits {
+            min_radius: 1e-3,
+            max_radius: 10.0,
+            max_anisotropy: 20.0,
+        };
+        let photons = photons
+            .iter()
+            .map(|&([x, z, r, skew], wall)| {
+                let n = if wall { DVec3::X } else { DVec3::Y };
+                let (a, b) = if wall {
+                    (DVec3::Y * r, DVec3::new(0.0, skew, 1.0) * r)
+                } else {
+                    (DVec3::X * r, DVec3::new(skew, 0.0, 1.0) * r)
+                };
+                let fp = footprint(a, b, n, &limits, 0.1, &mut Guards::default());
+                let at = if wall {
+                    DVec3::new(0.0, x, z)
+                } else {
+                    DVec3::new(x, 0.0, z)
+                };
+                Photon::new(at, n, -n, DVec3::ONE, &fp)
+            })
+            .collect();
+        PhotonMap::new(PathClass::Caustic, photons, 1, Guards::default())
+    }
+
+    proptest! {
+        /// A packet of queries finds for each query the photons `covering` finds for it alone,
+        /// in the same order: footprints near and far apart, points, needles askew to the axes
+        /// (which take their prism), non-finite footprints, more queries than a packet holds.
+        #[test]
+        fn a_packet_of_queries_finds_what_each_finds_alone(
+            photons in prop::collection::vec(
+                ((0f64..4.0, 0f64..4.0, 0.005f64..0.3, -2f64..2.0), prop::bool::weighted(0.1)),
+                1..600,
+            ),
+            queries in prop::collection::vec(
+                (0f64..4.0, 0f64..4.0, 0f64..0.2, -1f64..1.0, 0u8..8),
+                1..40,
+            ),
+        ) {
+            let map = map_of(&photons.iter().map(|&((x, z, r, s), w)| ([x, z, r, s], w)).collect::<Vec<_>>());
+            let requests: Vec<(DVec3, [DVec3; 2])> = queries
+                .iter()
+                .map(|&(x, z, size, turn, kind)| {
+                    let at = DVec3::new(x, 0.0, z);
+                    let f = match kind {
+                        0 => [DVec3::ZERO; 2],
+                        1 => [DVec3::new(f64::NAN, 0.0, 0.0), DVec3::Z],
+                        // A needle askew: its box is far larger than itself.
+                        2 => [DVec3::new(3.0, 0.0, 3.0 * turn), DVec3::new(-0.001, 0.0, 0.001)],
+                        _ => [DVec3::new(size, 0.0, size * turn), DVec3::new(-size * turn, 0.0, size)],
+                    };
+                    (at, f)
+                })
+                .collect();
+            let mut together = Vec::new();
+            map.covering_packet(&requests, &mut together);
+            let mut alone = Vec::new();
+            for (j, (x, f)) in requests.iter().enumerate() {
+                map.covering(*x, f, &mut alone);
+                prop_assert_eq!(&together[j], &alone, "query {}", j);
+            }
+        }
     }
 }
