@@ -5,7 +5,12 @@
 //! Targets (issue 12): found at most 2x used; the render stage at 1.28M photons at most 3x its
 //! time at 20k (same settings, one pass); the build of 1.28M photons well under 0.5 s.
 //!
-//! Run: `cargo bench --bench photon_queries` (env PHOTONDIFF_QUERIES_MAX_PHOTONS caps the sweep).
+//! Run: `cargo bench --bench photon_queries` (env PHOTONDIFF_QUERIES_MAX_PHOTONS caps the sweep;
+//! PHOTONDIFF_REPEATS, default 3, renders per estimator and count, the estimators alternated,
+//! the median reported: one render of each was too noisy to compare runs by).
+
+mod common;
+use common::{env_or, median};
 
 use photondiff::estimate::{EstimatorKind, EstimatorSettings, RadianceEstimator};
 use photondiff::photons::map::PhotonMap;
@@ -25,6 +30,7 @@ fn main() {
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/caustic-sphere.toml"
     ));
+    let repeats: usize = env_or("PHOTONDIFF_REPEATS", 3).max(1);
     let scene = load_scene(path).unwrap();
     let device = photondiff::embree::Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
@@ -60,24 +66,38 @@ fn main() {
                 t
             })
             .fold(f64::INFINITY, f64::min);
-        for (k, (name, kind)) in kinds.iter().enumerate() {
-            let settings = EstimatorSettings::new(*kind, options.limits(&scene).max_radius);
-            let estimators = maps.estimators(&settings);
-            let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
-            let mut render_stats = Stats::default();
-            render_image(
-                &scene,
-                &embree,
-                &refs,
-                &RenderOptions::default(),
-                &mut render_stats,
-            )
-            .unwrap();
-            let render = render_stats.seconds("render");
+        let estimators: Vec<_> = kinds
+            .iter()
+            .map(|(_, kind)| {
+                let settings = EstimatorSettings::new(*kind, options.limits(&scene).max_radius);
+                maps.estimators(&settings)
+            })
+            .collect();
+        let mut times = vec![Vec::new(); kinds.len()];
+        let mut gathers = vec![Default::default(); kinds.len()];
+        for _ in 0..repeats {
+            for (k, estimators) in estimators.iter().enumerate() {
+                let refs: Vec<&dyn RadianceEstimator> =
+                    estimators.iter().map(|e| e.as_ref()).collect();
+                let mut render_stats = Stats::default();
+                render_image(
+                    &scene,
+                    &embree,
+                    &refs,
+                    &RenderOptions::default(),
+                    &mut render_stats,
+                )
+                .unwrap();
+                times[k].push(render_stats.seconds("render"));
+                gathers[k] = render_stats.gathers;
+            }
+        }
+        for (k, (name, _)) in kinds.iter().enumerate() {
+            let render = median(times[k].clone());
             if first.len() <= k {
                 first.push(render);
             }
-            let g = render_stats.gathers;
+            let g = &gathers[k];
             let per = |n: u64| n as f64 / g.gathers.max(1) as f64;
             println!(
                 "| {count} | {build:.3} | {name} | {render:.3} | {:.2} | {:.1} / {:.1} | {:.2} |",
