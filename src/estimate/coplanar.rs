@@ -12,7 +12,7 @@ use crate::geometry::polygon::{
     area_centroid, ellipse_into, intersect_convex_with, parallelogram, unit_circle, ClipScratch,
 };
 use crate::geometry::sampling::tangent_frame;
-use crate::photons::map::PhotonMap;
+use crate::photons::map::{FootprintQuery, PhotonMap};
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::FRAC_1_PI;
@@ -86,8 +86,12 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
             // Only photons whose kernel may reach the view footprint (the exact disc against
             // parallelogram screen of the footprint estimators): the cube of the footprint's
             // reach let through four times as many, each clipped as a polygon for nothing.
-            self.map
-                .covering(q.position, &q.footprint, &mut scratch.found);
+            let query = FootprintQuery {
+                x: q.position,
+                footprint: q.footprint,
+                normal: q.normal,
+            };
+            self.map.covering(&query, &mut scratch.found);
             counts.photons_found += scratch.found.len() as u64;
             let mut sum = Vec3::ZERO;
             for &i in &scratch.found {

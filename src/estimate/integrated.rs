@@ -38,7 +38,7 @@ use crate::geometry::disc_integral::rows::{Rows, Wide};
 use crate::geometry::disc_integral::{
     classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
 };
-use crate::photons::map::PhotonMap;
+use crate::photons::map::{FootprintQuery, PhotonMap};
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
@@ -100,7 +100,7 @@ fn reach(q: &GatherQuery) -> [DVec3; 2] {
 #[derive(Default)]
 struct Scratch {
     /// Each query's centre and [`reach`], and the photons found for it.
-    requests: Vec<(DVec3, [DVec3; 2])>,
+    requests: Vec<FootprintQuery>,
     found: Vec<Vec<u32>>,
     /// The parallelograms of `batch`: (query, photon) each.
     general: Vec<(u32, u32)>,
@@ -241,7 +241,11 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             scratch.general_quads.clear();
             scratch.totals.clear();
             scratch.requests.clear();
-            let requests = queries.iter().map(|q| (q.position, reach(q)));
+            let requests = queries.iter().map(|q| FootprintQuery {
+                x: q.position,
+                footprint: reach(q),
+                normal: q.normal,
+            });
             scratch.requests.extend(requests);
             let mut found = std::mem::take(&mut scratch.found);
             self.map.covering_packet(&scratch.requests, &mut found);
@@ -257,7 +261,7 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             for (&(j, i), &mean) in owners.zip(means) {
                 if mean > 0.0 {
                     counts.photons_used += 1;
-                    let p = &self.map.photons[i as usize];
+                    let p = &self.map.flux[i as usize];
                     scratch.totals[j as usize] += p.power * (p.inv_area * mean as f32);
                 }
             }

@@ -25,6 +25,7 @@ pub use pd::PhotonDifferentialEstimate;
 pub use select::{EstimatorKind, EstimatorSettings};
 
 use crate::photons::cover::OFF_PLANE_TOLERANCE;
+pub use crate::photons::cover::{same_side, MIN_NORMAL_COSINE};
 use crate::photons::map::Photon;
 use glam::{DVec3, Vec3};
 use serde::Serialize;
@@ -137,16 +138,6 @@ pub(crate) fn batch_of_one<E: RadianceEstimator + ?Sized>(
     let mut out = [DVec3::ZERO];
     estimator.radiance_batch(std::slice::from_ref(q), &[1.0], &mut out, counts);
     out[0]
-}
-
-/// Photons stored on a surface facing another way than the query's (the other side of a thin
-/// wall, a sharp edge) do not contribute: the cosine between the normals must exceed this.
-pub const MIN_NORMAL_COSINE: f32 = 0.7;
-
-/// Whether photon normal `n_p` agrees with the query normal.
-#[inline]
-pub(crate) fn same_side(n_p: Vec3, n_x: Vec3) -> bool {
-    n_p.dot(n_x) > MIN_NORMAL_COSINE
 }
 
 /// Whether photon `p`, at offset `v = x - x_p` from a query of normal `n_x`, lies on the query's

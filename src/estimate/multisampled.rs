@@ -13,8 +13,9 @@
 //! at the default photon count a gather holds three or four photons, which alone would leave
 //! most of a batch's lanes padding.
 
-use super::{batch_of_one, on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
-use crate::photons::map::PhotonMap;
+use super::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
+use crate::photons::cover::InFilterSpace;
+use crate::photons::map::{FootprintQuery, PhotonMap};
 use glam::{DVec3, Vec2, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
@@ -148,8 +149,8 @@ pub fn kernel_sums_scalar(batch: &KernelBatch, offsets: &[f32], out: &mut Vec<f3
 #[derive(Default)]
 struct Scratch {
     /// Each query's centre and footprint, and the photons found for it.
-    requests: Vec<(DVec3, [DVec3; 2])>,
-    found: Vec<Vec<u32>>,
+    requests: Vec<FootprintQuery>,
+    found: Vec<Vec<InFilterSpace>>,
     /// The photons of `batch`: (query, photon) each.
     used: Vec<(u32, u32)>,
     batch: KernelBatch,
@@ -208,31 +209,26 @@ impl RadianceEstimator for MultiSampledEstimate<'_> {
             scratch.batch.clear();
             scratch.used.clear();
             scratch.requests.clear();
-            let requests = queries.iter().map(|q| (q.position, q.footprint));
+            let requests = queries.iter().map(|q| FootprintQuery {
+                x: q.position,
+                footprint: q.footprint,
+                normal: q.normal,
+            });
             scratch.requests.extend(requests);
+            // Each photon found on the query's surface, with the view footprint in its filter
+            // space, as the cover test computed them.
             self.map
                 .covering_packet(&scratch.requests, &mut scratch.found);
-            for ((j, q), found) in queries.iter().enumerate().zip(&scratch.found) {
+            for (j, found) in scratch.found[..queries.len()].iter().enumerate() {
                 counts.gathers += 1;
-                let f = [q.footprint[0].as_vec3(), q.footprint[1].as_vec3()];
                 counts.photons_found += found.len() as u64;
-                let x = q.position.as_vec3();
-                let n = q.normal.as_vec3();
-                for &i in found {
-                    let p = &self.map.photons[i as usize];
-                    let v = x - p.position;
-                    if !on_query_surface(p, v, n) {
-                        continue;
-                    }
-                    let s = Vec2::new(p.m[0].dot(v), p.m[1].dot(v));
-                    let a = Vec2::new(p.m[0].dot(f[0]), p.m[1].dot(f[0]));
-                    let b = Vec2::new(p.m[0].dot(f[1]), p.m[1].dot(f[1]));
+                for &InFilterSpace { slot, s, a, b } in found {
                     // No sample point can fall inside the kernel's unit disc.
                     if s.length() > 1.0 + 0.5 * (a.length() + b.length()) || !s.is_finite() {
                         continue;
                     }
                     scratch.batch.push(s, a, b);
-                    scratch.used.push((j as u32, i));
+                    scratch.used.push((j as u32, slot));
                 }
             }
             kernel_sums(&mut scratch.batch, &self.offsets, &mut scratch.sums);
@@ -241,7 +237,7 @@ impl RadianceEstimator for MultiSampledEstimate<'_> {
             for (&(j, i), &sum) in scratch.used.iter().zip(&scratch.sums) {
                 if sum > 0.0 {
                     counts.photons_used += 1;
-                    let p = &self.map.photons[i as usize];
+                    let p = &self.map.flux[i as usize];
                     scratch.totals[j as usize] += p.power * (p.inv_area * sum);
                 }
             }

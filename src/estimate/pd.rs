@@ -2,7 +2,7 @@
 //! filter space, at the single point the camera ray hits.
 
 use super::{photon_kernel, GatherCounts, GatherQuery, RadianceEstimator};
-use crate::photons::map::PhotonMap;
+use crate::photons::map::{FootprintQuery, PhotonMap};
 use glam::{DVec3, Vec3};
 use std::f64::consts::FRAC_1_PI;
 
@@ -25,7 +25,12 @@ impl RadianceEstimator for PhotonDifferentialEstimate<'_> {
         counts.gathers += 1;
         FOUND.with(|found| {
             let found = &mut *found.borrow_mut();
-            self.map.covering(q.position, &[DVec3::ZERO; 2], found);
+            let point = FootprintQuery {
+                x: q.position,
+                footprint: [DVec3::ZERO; 2],
+                normal: q.normal,
+            };
+            self.map.covering(&point, found);
             counts.photons_found += found.len() as u64;
             let x = q.position.as_vec3();
             let n = q.normal.as_vec3();

@@ -19,6 +19,16 @@ use wide::f32x16;
 /// the photon's radius (`estimate::on_query_surface`).
 pub const OFF_PLANE_TOLERANCE: f32 = 0.1;
 
+/// Photons stored on a surface facing another way than the query's (the other side of a thin
+/// wall, a sharp edge) do not contribute: the cosine between the normals must exceed this.
+pub const MIN_NORMAL_COSINE: f32 = 0.7;
+
+/// Whether photon normal `n_p` agrees with the query normal `n_x`.
+#[inline]
+pub fn same_side(n_p: Vec3, n_x: Vec3) -> bool {
+    n_p.dot(n_x) > MIN_NORMAL_COSINE
+}
+
 /// Rounding slack of the filter-space tests (in units of the kernel's radius).
 const SLACK: f32 = 1e-4;
 
@@ -78,20 +88,81 @@ pub struct CoverTable {
     slab: Vec<f32>,
 }
 
-/// A view footprint to test photons against: its centre and edges, in every lane.
+/// A view footprint to test photons against: its centre, edges and surface normal, in every
+/// lane.
 #[derive(Clone, Copy)]
 pub struct CoverQuery {
     c: [Lanes; 3],
     f: [[Lanes; 3]; 2],
+    n: [Lanes; 3],
 }
 
 impl CoverQuery {
-    /// The footprint `c +- f[0]/2 +- f[1]/2`.
-    pub fn new(c: Vec3, f: [Vec3; 2]) -> Self {
+    /// The footprint `c +- f[0]/2 +- f[1]/2` on a surface of normal `n`.
+    pub fn new(c: Vec3, f: [Vec3; 2], n: Vec3) -> Self {
         let splat = |v: Vec3| [Lanes::splat(v.x), Lanes::splat(v.y), Lanes::splat(v.z)];
         CoverQuery {
             c: splat(c),
             f: [splat(f[0]), splat(f[1])],
+            n: splat(n),
+        }
+    }
+}
+
+/// What a query keeps of each photon it finds: its slot alone (`u32`), or with the numbers the
+/// test computed on the way ([`InFilterSpace`]).
+///
+/// Slots alone are every photon that [`may_cover`] the footprint, whichever way it faces: their
+/// estimators read the photon anyway and test its surface with it ([`same_side`] in the cover
+/// test cost `pd` 4% of its render stage). Records in filter space are kept only of photons
+/// that also face the query's way: an estimator that reads them needs nothing else of the
+/// photon until its kernel's share is known.
+pub trait Found: Sized {
+    /// Whether [`Found::new`] reads the filter-space numbers (taken out of the lanes only then),
+    /// and only photons on the query's side are found.
+    const IN_FILTER_SPACE: bool;
+    /// The record of the photon in `slot`, lane `k` of its leaf's `filter` numbers (`s`, `a`,
+    /// `b` of [`InFilterSpace`], a row each, x then y), when [`Found::IN_FILTER_SPACE`].
+    fn new(slot: u32, filter: Option<&FilterRows>, k: usize) -> Self;
+}
+
+/// A leaf's filter-space numbers, rows `s.x, s.y, a.x, a.y, b.x, b.y`, a photon a column.
+pub type FilterRows = [[f32; LANES]; 6];
+
+impl Found for u32 {
+    const IN_FILTER_SPACE: bool = false;
+    #[inline(always)]
+    fn new(slot: u32, _: Option<&FilterRows>, _: usize) -> Self {
+        slot
+    }
+}
+
+/// A photon found, with the view footprint in its filter space: the parallelogram
+/// `s + alpha a + beta b`, `|alpha|, |beta| <= 1/2` (`s = M (x - x_p)`, `a = M f0`,
+/// `b = M f1`), as [`may_cover`] computes them in `f32` (and the estimators would again:
+/// `glam`'s `dot` sums in the same order, so the numbers are equal bit for bit).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InFilterSpace {
+    /// The photon's slot in the map.
+    pub slot: u32,
+    /// The footprint's centre.
+    pub s: Vec2,
+    /// Its first edge.
+    pub a: Vec2,
+    /// Its second edge.
+    pub b: Vec2,
+}
+
+impl Found for InFilterSpace {
+    const IN_FILTER_SPACE: bool = true;
+    #[inline(always)]
+    fn new(slot: u32, filter: Option<&FilterRows>, k: usize) -> Self {
+        let r = filter.expect("filter-space rows are stored for InFilterSpace");
+        InFilterSpace {
+            slot,
+            s: Vec2::new(r[0][k], r[1][k]),
+            a: Vec2::new(r[2][k], r[3][k]),
+            b: Vec2::new(r[4][k], r[5][k]),
         }
     }
 }
@@ -120,28 +191,29 @@ impl CoverTable {
 
     /// Appends to `out` the slots among `first..first + count` (`count <= 16`, a leaf of the
     /// footprint BVH) that [`may_cover`] the footprint of `q`, in order.
-    #[inline]
-    pub fn leaf(&self, first: usize, count: usize, q: &CoverQuery, out: &mut Vec<u32>) {
+    // Out of line: inlined into the walk's loop it made `pd`'s render 3-4% slower.
+    #[inline(never)]
+    pub fn leaf<T: Found>(&self, first: usize, count: usize, q: &CoverQuery, out: &mut Vec<T>) {
         let leaf = self.load(first, count);
-        push_slots(first, leaf.covered(q), out);
+        push_found(first, leaf.covered::<T>(q), out);
     }
 
     /// [`CoverTable::leaf`] for each query `j` of `queries` in the mask `queries_meeting`,
     /// into `outs[j]`: the leaf's lanes are loaded once for all of them.
     #[inline]
-    pub fn leaf_packet(
+    pub fn leaf_packet<T: Found>(
         &self,
         first: usize,
         count: usize,
         queries: &[CoverQuery],
         mut queries_meeting: u32,
-        outs: &mut [Vec<u32>],
+        outs: &mut [Vec<T>],
     ) {
         let leaf = self.load(first, count);
         while queries_meeting != 0 {
             let j = queries_meeting.trailing_zeros() as usize;
             queries_meeting &= queries_meeting - 1;
-            push_slots(first, leaf.covered(&queries[j]), &mut outs[j]);
+            push_found(first, leaf.covered::<T>(&queries[j]), &mut outs[j]);
         }
     }
 
@@ -175,13 +247,18 @@ struct LeafLanes {
 }
 
 impl LeafLanes {
-    /// Bit `k` set where the leaf's photon `k` [`may_cover`] the footprint of `q`.
+    /// Bit `k` set where the leaf's photon `k` [`may_cover`] the footprint of `q` (and faces its
+    /// way, for records [`Found::IN_FILTER_SPACE`]), and the
+    /// footprint in the photons' filter spaces (rows of [`FilterRows`]).
     #[inline(always)]
-    fn covered(&self, q: &CoverQuery) -> u32 {
+    fn covered<T: Found>(&self, q: &CoverQuery) -> (u32, [Lanes; 6]) {
         let (c, f0, f1) = (q.c, q.f[0], q.f[1]);
         let pos = &self.position;
         let v = [c[0] - pos[0], c[1] - pos[1], c[2] - pos[2]];
         let mut reject = dot(&self.normal, &v).abs().simd_gt(self.slab);
+        if T::IN_FILTER_SPACE {
+            reject |= !dot(&self.normal, &q.n).simd_gt(Lanes::splat(MIN_NORMAL_COSINE));
+        }
         let [m0, m1] = &self.m;
         let s = [dot(m0, &v), dot(m1, &v)];
         let a = [dot(m0, &f0), dot(m1, &f0)];
@@ -199,16 +276,21 @@ impl LeafLanes {
             let limit = len2.sqrt() * Lanes::splat(1.0 + SLACK) + Lanes::splat(0.5) * cross;
             reject |= len2.simd_gt(Lanes::splat(MIN_EDGE_SQUARED)) & across.simd_gt(limit);
         }
-        (!reject & self.in_leaf).to_bitmask()
+        let bits = (!reject & self.in_leaf).to_bitmask();
+        (bits, [s[0], s[1], a[0], a[1], b[0], b[1]])
     }
 }
 
-/// Appends `first + k` to `out` for each bit `k` of `bits`, lowest first.
+/// Appends the record of slot `first + k` to `out` for each bit `k` of `bits`, lowest first.
 #[inline(always)]
-fn push_slots(first: usize, mut bits: u32, out: &mut Vec<u32>) {
+fn push_found<T: Found>(first: usize, (mut bits, filter): (u32, [Lanes; 6]), out: &mut Vec<T>) {
+    if bits == 0 {
+        return;
+    }
+    let rows = T::IN_FILTER_SPACE.then(|| filter.map(|l| l.to_array()));
     while bits != 0 {
         let k = bits.trailing_zeros() as usize;
-        out.push((first + k) as u32);
+        out.push(T::new((first + k) as u32, rows.as_ref(), k));
         bits &= bits - 1;
     }
 }
@@ -314,8 +396,8 @@ mod tests {
             let count = count.min(photons.len() - first);
             let (c, f) = (Vec3::from(c) * Vec3::new(1.0, 1.0, 0.01), [Vec3::from(f0) * fscale, Vec3::from(f1) * fscale]);
             let table = CoverTable::new(&photons);
-            let mut simd = Vec::new();
-            table.leaf(first, count, &CoverQuery::new(c, f), &mut simd);
+            let mut simd: Vec<u32> = Vec::new();
+            table.leaf(first, count, &CoverQuery::new(c, f, Vec3::Z), &mut simd);
             let scalar: Vec<u32> = (first..first + count)
                 .filter(|&i| may_cover(&photons[i], c - photons[i].position, f))
                 .map(|i| i as u32)

@@ -15,6 +15,9 @@
 //!
 //! [`PathClass::AllDiffuse`]: crate::photons::map::PathClass::AllDiffuse
 
+// Photons facing another way than a point (the other side of a thin wall, across an edge) do not
+// count, as in the estimators' test.
+use crate::photons::cover::MIN_NORMAL_COSINE;
 use crate::photons::trace::TracedPhoton;
 use glam::{DVec3, Vec3};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
@@ -29,10 +32,6 @@ pub const RADIANCE_NEIGHBOURS: usize = 64;
 /// Radiance is precomputed at every this many photons (Christensen uses 4: the estimates of
 /// neighbouring photons share most of their photons and barely differ).
 pub const POINT_STRIDE: usize = 4;
-
-/// Photons facing another way than a point (the other side of a thin wall, across an edge) do
-/// not count: the cosine between the normals must exceed this (as the estimators' test).
-const MIN_NORMAL_COSINE: f32 = 0.7;
 
 /// Where radiance was precomputed.
 #[derive(Debug, Clone, Copy)]
