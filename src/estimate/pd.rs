@@ -1,14 +1,24 @@
 //! The photon-differential estimate (Schjoth et al. 2007): each photon's kernel in its own
 //! filter space, at the single point the camera ray hits.
 
-use super::{photon_kernel, GatherCounts, GatherQuery, RadianceEstimator};
+use super::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
+use crate::photons::cover::InFilterSpace;
 use crate::photons::map::{FootprintQuery, PhotonMap};
 use glam::{DVec3, Vec3};
+use std::cell::RefCell;
+use std::f32::consts::FRAC_2_PI;
 use std::f64::consts::FRAC_1_PI;
 
+/// Buffers reused across gathers on one thread.
+#[derive(Default)]
+struct Scratch {
+    /// Each query's point, and the photons found for it with the point in their filter spaces.
+    requests: Vec<FootprintQuery>,
+    found: Vec<Vec<InFilterSpace>>,
+}
+
 thread_local! {
-    /// The photon indices of a gather, reused across gathers on one thread.
-    static FOUND: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
 /// The photon-differential estimate (Schjoth et al.): every photon within the map's largest
@@ -22,27 +32,46 @@ pub struct PhotonDifferentialEstimate<'a> {
 
 impl RadianceEstimator for PhotonDifferentialEstimate<'_> {
     fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
-        counts.gathers += 1;
-        FOUND.with(|found| {
-            let found = &mut *found.borrow_mut();
-            let point = FootprintQuery {
-                x: q.position,
-                footprint: [DVec3::ZERO; 2],
-                normal: q.normal,
-            };
-            self.map.covering(&point, found);
-            counts.photons_found += found.len() as u64;
-            let x = q.position.as_vec3();
-            let n = q.normal.as_vec3();
-            let mut sum = Vec3::ZERO;
-            for &i in found.iter() {
-                let p = &self.map.photons[i as usize];
-                if let Some(c) = photon_kernel(p, x - p.position, n) {
-                    counts.photons_used += 1;
-                    sum += c;
+        batch_of_one(self, q, counts)
+    }
+
+    /// The packet's points go through the map together ([`PhotonMap::covering_packet`]); each
+    /// photon found comes with the point in its filter space, `u = M_p (x - x_p)`, as
+    /// [`super::photon_kernel`] computes it, and only if it lies on the query's surface, so the
+    /// kernel `Phi_p / A_p (2 / pi) (1 - |u|^2)` needs only the photon's flux.
+    fn radiance_batch(
+        &self,
+        queries: &[GatherQuery],
+        _shares: &[f64],
+        out: &mut [DVec3],
+        counts: &mut GatherCounts,
+    ) {
+        SCRATCH.with(|scratch| {
+            let scratch = &mut *scratch.borrow_mut();
+            scratch.requests.clear();
+            scratch
+                .requests
+                .extend(queries.iter().map(|q| FootprintQuery {
+                    x: q.position,
+                    footprint: [DVec3::ZERO; 2],
+                    normal: q.normal,
+                }));
+            self.map
+                .covering_packet(&scratch.requests, &mut scratch.found);
+            for ((q, found), o) in queries.iter().zip(&scratch.found).zip(out) {
+                counts.gathers += 1;
+                counts.photons_found += found.len() as u64;
+                let mut sum = Vec3::ZERO;
+                for &InFilterSpace { slot, s, .. } in found {
+                    let r2 = s.x * s.x + s.y * s.y;
+                    if r2 < 1.0 {
+                        counts.photons_used += 1;
+                        let p = &self.map.flux[slot as usize];
+                        sum += p.power * (p.inv_area * FRAC_2_PI * (1.0 - r2));
+                    }
                 }
+                *o = q.albedo * FRAC_1_PI * sum.as_dvec3();
             }
-            q.albedo * FRAC_1_PI * sum.as_dvec3()
         })
     }
 }
