@@ -15,6 +15,9 @@ use crate::photons::map::Photon;
 use glam::{Vec2, Vec3};
 use wide::f32x16;
 
+mod found;
+pub use found::{Found, InFilterSpace, Tested};
+
 /// How far off its tangent plane a query point may lie and still see a photon, as a fraction of
 /// the photon's radius (`estimate::on_query_surface`).
 pub const OFF_PLANE_TOLERANCE: f32 = 0.1;
@@ -109,64 +112,6 @@ impl CoverQuery {
     }
 }
 
-/// What a query keeps of each photon it finds: its slot alone (`u32`), or with the numbers the
-/// test computed on the way ([`InFilterSpace`]).
-///
-/// Slots alone are every photon that [`may_cover`] the footprint, whichever way it faces: their
-/// estimators read the photon anyway and test its surface with it ([`same_side`] in the cover
-/// test cost `pd` 4% of its render stage). Records in filter space are kept only of photons
-/// that also face the query's way: an estimator that reads them needs nothing else of the
-/// photon until its kernel's share is known.
-pub trait Found: Sized {
-    /// Whether [`Found::new`] reads the filter-space numbers (taken out of the lanes only then),
-    /// and only photons on the query's side are found.
-    const IN_FILTER_SPACE: bool;
-    /// The record of the photon in `slot`, lane `k` of its leaf's `filter` numbers (`s`, `a`,
-    /// `b` of [`InFilterSpace`], a row each, x then y), when [`Found::IN_FILTER_SPACE`].
-    fn new(slot: u32, filter: Option<&FilterRows>, k: usize) -> Self;
-}
-
-/// A leaf's filter-space numbers, rows `s.x, s.y, a.x, a.y, b.x, b.y`, a photon a column.
-pub type FilterRows = [[f32; LANES]; 6];
-
-impl Found for u32 {
-    const IN_FILTER_SPACE: bool = false;
-    #[inline(always)]
-    fn new(slot: u32, _: Option<&FilterRows>, _: usize) -> Self {
-        slot
-    }
-}
-
-/// A photon found, with the view footprint in its filter space: the parallelogram
-/// `s + alpha a + beta b`, `|alpha|, |beta| <= 1/2` (`s = M (x - x_p)`, `a = M f0`,
-/// `b = M f1`), as [`may_cover`] computes them in `f32` (and the estimators would again:
-/// `glam`'s `dot` sums in the same order, so the numbers are equal bit for bit).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct InFilterSpace {
-    /// The photon's slot in the map.
-    pub slot: u32,
-    /// The footprint's centre.
-    pub s: Vec2,
-    /// Its first edge.
-    pub a: Vec2,
-    /// Its second edge.
-    pub b: Vec2,
-}
-
-impl Found for InFilterSpace {
-    const IN_FILTER_SPACE: bool = true;
-    #[inline(always)]
-    fn new(slot: u32, filter: Option<&FilterRows>, k: usize) -> Self {
-        let r = filter.expect("filter-space rows are stored for InFilterSpace");
-        InFilterSpace {
-            slot,
-            s: Vec2::new(r[0][k], r[1][k]),
-            a: Vec2::new(r[2][k], r[3][k]),
-            b: Vec2::new(r[4][k], r[5][k]),
-        }
-    }
-}
-
 impl CoverTable {
     /// The table of `photons`, in their order.
     pub fn new(photons: &[Photon]) -> Self {
@@ -195,7 +140,7 @@ impl CoverTable {
     #[inline(never)]
     pub fn leaf<T: Found>(&self, first: usize, count: usize, q: &CoverQuery, out: &mut Vec<T>) {
         let leaf = self.load(first, count);
-        push_found(first, leaf.covered::<T>(q), out);
+        push_found(first, &leaf, q, out);
     }
 
     /// [`CoverTable::leaf`] for each query `j` of `queries` in the mask `queries_meeting`,
@@ -213,7 +158,7 @@ impl CoverTable {
         while queries_meeting != 0 {
             let j = queries_meeting.trailing_zeros() as usize;
             queries_meeting &= queries_meeting - 1;
-            push_found(first, leaf.covered::<T>(&queries[j]), &mut outs[j]);
+            push_found(first, &leaf, &queries[j], &mut outs[j]);
         }
     }
 
@@ -248,15 +193,15 @@ struct LeafLanes {
 
 impl LeafLanes {
     /// Bit `k` set where the leaf's photon `k` [`may_cover`] the footprint of `q` (and faces its
-    /// way, for records [`Found::IN_FILTER_SPACE`]), and the
-    /// footprint in the photons' filter spaces (rows of [`FilterRows`]).
+    /// way, for records [`Found::ON_SURFACE`]), and the footprint in the photons' filter
+    /// spaces: `s.x, s.y, a.x, a.y, b.x, b.y` in lanes.
     #[inline(always)]
     fn covered<T: Found>(&self, q: &CoverQuery) -> (u32, [Lanes; 6]) {
         let (c, f0, f1) = (q.c, q.f[0], q.f[1]);
         let pos = &self.position;
         let v = [c[0] - pos[0], c[1] - pos[1], c[2] - pos[2]];
         let mut reject = dot(&self.normal, &v).abs().simd_gt(self.slab);
-        if T::IN_FILTER_SPACE {
+        if T::ON_SURFACE {
             reject |= !dot(&self.normal, &q.n).simd_gt(Lanes::splat(MIN_NORMAL_COSINE));
         }
         let [m0, m1] = &self.m;
@@ -281,16 +226,18 @@ impl LeafLanes {
     }
 }
 
-/// Appends the record of slot `first + k` to `out` for each bit `k` of `bits`, lowest first.
+/// Appends to `out` the record of each photon of `leaf` (slots from `first`) that the test for
+/// `q` keeps, lowest slot first.
 #[inline(always)]
-fn push_found<T: Found>(first: usize, (mut bits, filter): (u32, [Lanes; 6]), out: &mut Vec<T>) {
+fn push_found<T: Found>(first: usize, leaf: &LeafLanes, q: &CoverQuery, out: &mut Vec<T>) {
+    let (mut bits, filter) = leaf.covered::<T>(q);
     if bits == 0 {
         return;
     }
-    let rows = T::IN_FILTER_SPACE.then(|| filter.map(|l| l.to_array()));
+    let rows = T::rows(&Tested { filter });
     while bits != 0 {
         let k = bits.trailing_zeros() as usize;
-        out.push(T::new((first + k) as u32, rows.as_ref(), k));
+        out.push(T::new((first + k) as u32, &rows, k));
         bits &= bits - 1;
     }
 }
