@@ -268,17 +268,24 @@ pub fn classify(s: DVec2, a: DVec2, b: DVec2) -> Overlap {
     if far <= 1.0 {
         return Overlap::Mean(1.0 - ss - size2 / 12.0);
     }
-    let circumradius = 0.5
-        * (a + b)
-            .length_squared()
-            .max((a - b).length_squared())
-            .sqrt();
-    if ss >= (1.0 + circumradius) * (1.0 + circumradius) {
+    // Beyond 1 + R from the centre (R the circumradius): apart, though no side's line may
+    // separate them (the disc faces a corner). Without a square root: ss >= (1 + R)^2 =
+    // 1 + R^2 + 2 R.
+    let r2 = 0.25 * (a + b).length_squared().max((a - b).length_squared());
+    let beyond = ss - 1.0 - r2;
+    if beyond >= 0.0 && beyond * beyond >= 4.0 * r2 {
         return Overlap::None;
     }
-    let (a, b) = thickened(a, b, MIN_WIDTH * size2.sqrt().min(1.0));
-    // Sides' signed distances from the origin: centre distance +- half width, per direction.
+    let (a, b) = thickened(a, b, size2);
     let area = a.perp_dot(b).abs();
+    // The disc inside the parallelogram (each side's line at least 1 from the centre) needs an
+    // area of at least pi; a smaller one crossing the circle is the common case, and the
+    // general formula also settles the rare one that a side's line separates from the disc
+    // (to 0, up to rounding).
+    if area < std::f64::consts::PI {
+        return Overlap::General { s, a, b };
+    }
+    // Sides' signed distances from the origin: centre distance +- half width, per direction.
     let (la, lb) = (a.length(), b.length());
     let ca = s.perp_dot(a) / la;
     let cb = s.perp_dot(b) / lb;
@@ -306,23 +313,24 @@ pub fn mean(s: DVec2, a: DVec2, b: DVec2) -> f64 {
 }
 
 /// `a`, `b` with the shorter one moved along the longer one's normal so that the parallelogram
-/// is at least `min_width` wide across the longer one; unchanged if it already is.
-fn thickened(a: DVec2, b: DVec2, min_width: f64) -> (DVec2, DVec2) {
+/// is at least [`MIN_WIDTH`] times its size (`sqrt(size2)`, `size2 = |a|^2 + |b|^2`, at most 1)
+/// wide across the longer one; unchanged if it already is (tested without a square root: most
+/// are).
+fn thickened(a: DVec2, b: DVec2, size2: f64) -> (DVec2, DVec2) {
     let cross = a.perp_dot(b);
+    let (aa, bb) = (a.length_squared(), b.length_squared());
+    if cross * cross >= MIN_WIDTH * MIN_WIDTH * size2.min(1.0) * aa.max(bb) {
+        return (a, b);
+    }
+    let min_width = MIN_WIDTH * size2.sqrt().min(1.0);
     let sign = if cross < 0.0 { -1.0 } else { 1.0 };
-    if a.length_squared() >= b.length_squared() {
+    if aa >= bb {
         let la = a.length();
-        if cross.abs() >= min_width * la {
-            return (a, b);
-        }
         // perp_dot(a, b + l perp(a)/|a|) = cross + l |a|.
         let lambda = sign * (min_width - cross.abs() / la);
         (a, b + a.perp() / la * lambda)
     } else {
         let lb = b.length();
-        if cross.abs() >= min_width * lb {
-            return (a, b);
-        }
         // perp_dot(a + l perp(b)/|b|, b) = cross - l |b|.
         let lambda = -sign * (min_width - cross.abs() / lb);
         (a + b.perp() / lb * lambda, b)
