@@ -32,12 +32,13 @@
 //! (`pd`). The gather asks the map for every photon whose footprint may overlap `V`
 //! ([`PhotonMap::covering`]), as the multi-sampled estimate does.
 
-use super::{batch_of_one, on_query_surface, GatherCounts, GatherQuery, RadianceEstimator};
+use super::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadOverlap};
 use crate::geometry::disc_integral::rows::{Rows, Wide};
 use crate::geometry::disc_integral::{
     classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
 };
+use crate::photons::cover::OnSurface;
 use crate::photons::map::{FootprintQuery, PhotonMap};
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
@@ -87,21 +88,28 @@ pub fn parallelogram_means_scalar(batch: &ParallelogramBatch, out: &mut Vec<f64>
     }
 }
 
-/// The footprint the map is asked about for query `q`: its parallelogram, grown to hold its
-/// exact footprint (the corners as offsets from the query point) where it has one.
-fn reach(q: &GatherQuery) -> [DVec3; 2] {
-    match &q.exact {
-        Some(e) => q.footprint.map(|f| f * e.grow),
-        None => q.footprint,
+/// The map's request for query `q`: its parallelogram, grown to hold its exact footprint (the
+/// corners as offsets from the query point) where it has one.
+#[inline]
+fn request(q: &GatherQuery) -> FootprintQuery {
+    // Component by component (a growth of 1 where there is none changes nothing): built
+    // through `array::map` and a `match`, the request went through the stack in pieces and
+    // was read back whole, a stalled load a query (2% of the render stage).
+    let g = q.exact.as_ref().map_or(1.0, |e| e.grow);
+    let [f0, f1] = q.footprint;
+    FootprintQuery {
+        x: q.position,
+        footprint: [f0 * g, f1 * g],
+        normal: q.normal,
     }
 }
 
 /// Scratch space reused across gathers on one thread.
 #[derive(Default)]
 struct Scratch {
-    /// Each query's centre and [`reach`], and the photons found for it.
+    /// Each query's [`request`], and the photons found for it.
     requests: Vec<FootprintQuery>,
-    found: Vec<Vec<u32>>,
+    found: Vec<Vec<OnSurface>>,
     /// The parallelograms of `batch`: (query, photon) each.
     general: Vec<(u32, u32)>,
     batch: ParallelogramBatch,
@@ -126,13 +134,13 @@ pub struct IntegratedEstimate<'a> {
 
 impl IntegratedEstimate<'_> {
     /// Gathers query `q` (number `j` of its batch) over the photons `found` for it
-    /// ([`reach`]): the photons settled in closed form are summed and returned; those that need
+    /// ([`request`]): the photons settled in closed form are summed and returned; those that need
     /// the general formula join the scratch's batches, owned by `j`.
     fn gather(
         &self,
         q: &GatherQuery,
         j: u32,
-        found: &[u32],
+        found: &[OnSurface],
         scratch: &mut Scratch,
         counts: &mut GatherCounts,
     ) -> Vec3 {
@@ -145,15 +153,10 @@ impl IntegratedEstimate<'_> {
         let exact = q.exact.as_ref();
         counts.exact_footprints += u64::from(exact.is_some());
         counts.photons_found += found.len() as u64;
-        let x = q.position.as_vec3();
-        let n = q.normal.as_vec3();
         let mut total = Vec3::ZERO;
-        for &i in found {
+        // Found on the query's surface (the cover test made `on_query_surface`'s test).
+        for &OnSurface(i) in found {
             let p = &self.map.photons[i as usize];
-            let v = x - p.position;
-            if !on_query_surface(p, v, n) {
-                continue;
-            }
             // In double precision from the query's own (not f32-rounded) point and
             // footprint: the filter map scales a pixel by its size over the photon's, so a
             // photon far smaller than the pixel (a focus) would see f32's rounding of them
@@ -241,12 +244,7 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             scratch.general_quads.clear();
             scratch.totals.clear();
             scratch.requests.clear();
-            let requests = queries.iter().map(|q| FootprintQuery {
-                x: q.position,
-                footprint: reach(q),
-                normal: q.normal,
-            });
-            scratch.requests.extend(requests);
+            scratch.requests.extend(queries.iter().map(request));
             let mut found = std::mem::take(&mut scratch.found);
             self.map.covering_packet(&scratch.requests, &mut found);
             for ((j, q), found) in queries.iter().enumerate().zip(&found) {

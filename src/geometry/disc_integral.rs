@@ -61,32 +61,82 @@ pub const MIN_WIDTH: f64 = 1e-5;
 
 pub use super::lanes::Lane;
 
-/// The flux of `F` through one side of the fan triangle `(0, start, end)` ∩ `D`: the side lies
-/// on the line at signed distance `h` (outward) from the origin and runs over `t in [t0, t1]`.
-/// Returned as the flux through the side's pieces inside `D` and a complex number `(re, im)`
-/// whose argument is the signed angle of its arcs (the pieces outside `D`), which contribute
-/// `arg / 4`.
-#[inline(always)]
-fn side_parts<T: Lane>(h: T, t0: T, t1: T) -> (T, T, T) {
-    let half = T::splat(0.5);
-    let quarter = T::splat(0.25);
-    let hh = h * h;
-    let w = (T::splat(1.0) - hh).max(T::splat(0.0)).sqrt();
-    let (u0, u1) = (t0.max(-w).min(w), t1.max(-w).min(w));
-    let line = h
-        * ((half - quarter * hh) * (u1 - u0)
-            - (u1 - u0) * (u1 * u1 + u1 * u0 + u0 * u0) * T::splat(1.0 / 12.0));
-    // The angles of the outside pieces [t0, u0] and [u1, t1], as one complex product.
-    let (r1, i1) = (hh + t0 * u0, h * (u0 - t0));
-    let (r2, i2) = (hh + u1 * t1, h * (t1 - u1));
-    (line, r1 * r2 - i1 * i2, r1 * i2 + i1 * r2)
+/// A side of a fan triangle `(0, start, end)` ∩ `D`: the side lies on the line at signed
+/// distance `h` (outward) from the origin and runs over `t in [t0, t1]`, of which `[u0, u1]` lies
+/// inside `D` (clipped to `[-w, w]`, `w = sqrt(1 - h^2)`; `hh = h^2`).
+///
+/// Clipped once a side for the integral ([`Clipped::parts`]) and the first moment
+/// ([`moment::first_moment`]) alike: square roots are the slowest part of the general
+/// formula's batches, and `quad::quad_means` took twelve a chunk of lanes where eight do now
+/// (its share of the render stage fell by about a quarter).
+#[derive(Debug, Clone, Copy)]
+pub struct Clipped<T> {
+    /// Signed distance of the side's line from the origin.
+    pub h: T,
+    /// `h^2`.
+    pub hh: T,
+    /// The side's `t`-range.
+    pub t0: T,
+    /// Its end.
+    pub t1: T,
+    /// The part of `[t0, t1]` inside the disc (empty, `u0 = u1`, if none).
+    pub u0: T,
+    /// Its end.
+    pub u1: T,
 }
 
-/// The flux of `F` through one side (see [`side_parts`]).
+impl<T: Lane> Clipped<T> {
+    /// The side on the line at `h` over `[t0, t1]`, clipped to the disc.
+    #[inline(always)]
+    pub fn new(h: T, t0: T, t1: T) -> Self {
+        let hh = h * h;
+        let w = (T::splat(1.0) - hh).max(T::splat(0.0)).sqrt();
+        Clipped {
+            h,
+            hh,
+            t0,
+            t1,
+            u0: t0.max(-w).min(w),
+            u1: t1.max(-w).min(w),
+        }
+    }
+
+    /// The flux of `F` through the side's pieces inside `D`, and a complex number `(re, im)`
+    /// whose argument is the signed angle of its arcs (the pieces outside `D`), which contribute
+    /// `arg / 4`.
+    #[inline(always)]
+    pub fn parts(&self) -> (T, T, T) {
+        let &Clipped {
+            h,
+            hh,
+            t0,
+            t1,
+            u0,
+            u1,
+        } = self;
+        let half = T::splat(0.5);
+        let quarter = T::splat(0.25);
+        let line = h
+            * ((half - quarter * hh) * (u1 - u0)
+                - (u1 - u0) * (u1 * u1 + u1 * u0 + u0 * u0) * T::splat(1.0 / 12.0));
+        // The angles of the outside pieces [t0, u0] and [u1, t1], as one complex product.
+        let (r1, i1) = (hh + t0 * u0, h * (u0 - t0));
+        let (r2, i2) = (hh + u1 * t1, h * (t1 - u1));
+        (line, r1 * r2 - i1 * i2, r1 * i2 + i1 * r2)
+    }
+
+    /// The flux of `F` through the side: its pieces inside `D` and its arcs.
+    #[inline(always)]
+    pub fn flux(&self) -> T {
+        let (line, re, im) = self.parts();
+        line + T::splat(0.25) * im.atan2(re)
+    }
+}
+
+/// The flux of `F` through one side on the line at `h` over `[t0, t1]` (see [`Clipped`]).
 #[inline(always)]
 pub(crate) fn side<T: Lane>(h: T, t0: T, t1: T) -> T {
-    let (line, re, im) = side_parts(h, t0, t1);
-    line + T::splat(0.25) * im.atan2(re)
+    Clipped::new(h, t0, t1).flux()
 }
 
 /// `z`, or `1` where `|re| + |im| < 1e-75`. Such a side's line runs through the origin (`h`
@@ -184,14 +234,20 @@ pub fn general_one_arc<T: Lane>(s0: T, s1: T, a0: T, a1: T, b0: T, b1: T) -> (T,
 /// [`general_one_arc`], whose argument holds for any convex quadrilateral).
 #[inline(always)]
 pub(crate) fn one_arc_flux<T: Lane>(e: [(T, T, T); 4]) -> T {
+    one_arc_flux_clipped(&e.map(|(h, t0, t1)| Clipped::new(h, t0, t1)))
+}
+
+/// [`one_arc_flux`] of sides already [`Clipped`].
+#[inline(always)]
+pub(crate) fn one_arc_flux_clipped<T: Lane>(e: &[Clipped<T>; 4]) -> T {
     let mut line = T::splat(0.0);
-    let mut min_h = e[0].0;
+    let mut min_h = e[0].h;
     let (mut re, mut im) = (T::splat(1.0), T::splat(0.0));
-    for (h, t0, t1) in e {
-        let (l, r, i) = side_parts(h, t0, t1);
+    for side in e {
+        let (l, r, i) = side.parts();
         let (r, i) = nonzero(r, i);
         line = line + l;
-        min_h = min_h.min(h);
+        min_h = min_h.min(side.h);
         (re, im) = (re * r - im * i, re * i + im * r);
     }
     let theta = im.atan2(re);

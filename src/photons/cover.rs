@@ -16,7 +16,7 @@ use glam::{Vec2, Vec3};
 use wide::f32x16;
 
 mod found;
-pub use found::{Found, InFilterSpace, Tested};
+pub use found::{Found, InFilterSpace, OnSurface, Tested};
 
 /// How far off its tangent plane a query point may lie and still see a photon, as a fraction of
 /// the photon's radius (`estimate::on_query_surface`).

@@ -20,23 +20,21 @@
 //!   `(2/15) F(sum over sides of u(u0) - u(u1))`, where every remaining point lies on the
 //!   circle (`|u| = 1`, so `e = u`): no square root and no angle.
 
-use super::Lane;
+use super::{Clipped, Lane};
 
 /// The first moment (x, y) of `(1 - |u|^2)` over `P ∩ D` for the convex counter-clockwise
-/// polygon whose sides are `(h, t0, t1)` as the integral's sides (`super::side`) take them,
-/// with unit tangents `(tau_x, tau_y)` (the outward normal is `(tau_y, -tau_x)`).
+/// polygon whose sides are as the integral's sides take them ([`Clipped`]), with unit tangents
+/// `(tau_x, tau_y)` (the outward normal is `(tau_y, -tau_x)`).
 #[inline(always)]
 pub fn first_moment<T: Lane, const N: usize>(
-    sides: &[(T, T, T); N],
+    sides: &[Clipped<T>; N],
     tangents: &[(T, T); N],
 ) -> (T, T) {
     let (mut mx, mut my) = (T::splat(0.0), T::splat(0.0));
     // Sum over sides of u(u0) - u(u1) = (u0 - u1) tau (the nu parts cancel within a side).
     let (mut ax, mut ay) = (T::splat(0.0), T::splat(0.0));
-    for (&(h, t0, t1), &(tx, ty)) in sides.iter().zip(tangents) {
-        let hh = h * h;
-        let w = (T::splat(1.0) - hh).max(T::splat(0.0)).sqrt();
-        let (u0, u1) = (t0.max(-w).min(w), t1.max(-w).min(w));
+    for (side, &(tx, ty)) in sides.iter().zip(tangents) {
+        let &Clipped { h, hh, u0, u1, .. } = side;
         let c = T::splat(1.0 / 3.0) - hh * T::splat(0.2);
         let (s0, s1) = (u0 * u0, u1 * u1);
         let along_normal = hh * (c * (u1 - u0) - (s1 * u1 - s0 * u0) * T::splat(1.0 / 15.0));

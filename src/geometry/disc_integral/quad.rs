@@ -19,7 +19,7 @@
 
 use super::moment::first_moment;
 use super::rows::Rows;
-use super::{one_arc_flux, side, Lane, ONE_ARC_MAX_CIRCUMRADIUS};
+use super::{one_arc_flux, one_arc_flux_clipped, side, Clipped, Lane, ONE_ARC_MAX_CIRCUMRADIUS};
 use crate::geometry::disc_integral::rows::Wide;
 use glam::DVec2;
 
@@ -165,7 +165,7 @@ impl Rows<11> {
 #[inline(always)]
 pub fn quad_first_moment<T: Lane>(x: [T; 4], y: [T; 4]) -> (T, T) {
     let (sides, tangents, _) = quad_sides(x, y);
-    first_moment(&sides, &tangents)
+    first_moment(&sides.map(|(h, t0, t1)| Clipped::new(h, t0, t1)), &tangents)
 }
 
 /// For each quadrilateral of `batch`, the mean of `(1 - |u|^2)+` times its weight over it by
@@ -192,14 +192,13 @@ pub fn quad_means(batch: &mut QuadBatch, out: &mut Vec<f64>) {
         let (x, y) = ([x0, x1, x2, x3], [y0, y1, y2, y3]);
         // The sides once, for the integral and the first moment alike.
         let (sides, tangents, area) = quad_sides(x, y);
+        let clipped = sides.map(|(h, t0, t1)| Clipped::new(h, t0, t1));
         let integral = if quad_takes_one_arc(x, y).simd_ge(Wide::ZERO).all() {
-            one_arc_flux(sides)
+            one_arc_flux_clipped(&clipped)
         } else {
-            sides
-                .iter()
-                .fold(Wide::ZERO, |sum, &(h, t0, t1)| sum + side(h, t0, t1))
+            clipped.iter().fold(Wide::ZERO, |sum, c| sum + c.flux())
         };
-        let (mx, my) = first_moment(&sides, &tangents);
+        let (mx, my) = first_moment(&clipped, &tangents);
         let weighted = k0 * integral + kx * mx + ky * my;
         // Where the integral is 0 (tangency, rounding) so is the weighted one.
         let weighted = integral.simd_gt(Wide::ZERO).bitselect(weighted, Wide::ZERO);

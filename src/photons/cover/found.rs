@@ -42,6 +42,23 @@ impl Found for u32 {
     }
 }
 
+/// A photon found that faces the query's way and lies on its surface slab (its slot): the
+/// cover test has then made [`crate::estimate::on_query_surface`]'s test, in the same `f32`
+/// operations, so an estimator that reads the photon anyway need not make it again.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OnSurface(pub u32);
+
+impl Found for OnSurface {
+    const ON_SURFACE: bool = true;
+    type Rows = ();
+    #[inline(always)]
+    fn rows(_: &Tested) {}
+    #[inline(always)]
+    fn new(slot: u32, _: &(), _: usize) -> Self {
+        OnSurface(slot)
+    }
+}
+
 /// A photon found, with the view footprint in its filter space: the parallelogram
 /// `s + alpha a + beta b`, `|alpha|, |beta| <= 1/2` (`s = M (x - x_p)`, `a = M f0`,
 /// `b = M f1`), as [`super::may_cover`] computes them in `f32` (and the estimators would again:
