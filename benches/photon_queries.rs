@@ -10,13 +10,13 @@
 //! the median reported: one render of each was too noisy to compare runs by).
 
 mod common;
-use common::{env_or, median};
+use common::{env_or, median, render_in_process};
 
-use photondiff::estimate::{EstimatorKind, EstimatorSettings, RadianceEstimator};
+use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::map::PhotonMap;
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::render::stats::Stats;
-use photondiff::render::{render_image, trace_photon_maps, RenderOptions};
+use photondiff::render::trace_photon_maps;
 use photondiff::scene::file::load_scene;
 use std::path::Path;
 use std::time::Instant;
@@ -77,17 +77,7 @@ fn main() {
         let mut gathers = vec![Default::default(); kinds.len()];
         for _ in 0..repeats {
             for (k, estimators) in estimators.iter().enumerate() {
-                let refs: Vec<&dyn RadianceEstimator> =
-                    estimators.iter().map(|e| e.as_ref()).collect();
-                let mut render_stats = Stats::default();
-                render_image(
-                    &scene,
-                    &embree,
-                    &refs,
-                    &RenderOptions::default(),
-                    &mut render_stats,
-                )
-                .unwrap();
+                let render_stats = render_in_process(&scene, &embree, estimators);
                 times[k].push(render_stats.seconds("render"));
                 gathers[k] = render_stats.gathers;
             }

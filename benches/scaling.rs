@@ -17,11 +17,11 @@
 
 use glam::DVec3;
 use photondiff::embree::{Device, Ray, SceneBuilder};
-use photondiff::estimate::{EstimatorKind, EstimatorSettings, RadianceEstimator};
+use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::map::PhotonMap;
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::render::stats::Stats;
-use photondiff::render::{render_image, trace_photon_maps, RenderOptions};
+use photondiff::render::trace_photon_maps;
 use photondiff::scene::file::load_scene;
 use photondiff::scene::mesh_file::load_mesh;
 use photondiff::scene::mesh_file::ply::write::write_binary;
@@ -29,6 +29,9 @@ use photondiff::scene::shapes::sphere;
 use std::io::BufWriter;
 use std::path::Path;
 use std::time::Instant;
+
+mod common;
+use common::render_in_process;
 
 fn seconds<T>(f: impl FnOnce() -> T) -> (f64, T) {
     let start = Instant::now();
@@ -165,17 +168,7 @@ fn photons_sweep() {
             seconds(|| PhotonMap::new(c.class, c.photons.clone(), c.emitted, c.guards));
         let settings =
             EstimatorSettings::new(EstimatorKind::Integrated, options.limits(&scene).max_radius);
-        let estimators = maps.estimators(&settings);
-        let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
-        let mut render_stats = Stats::default();
-        render_image(
-            &scene,
-            &embree,
-            &refs,
-            &RenderOptions::default(),
-            &mut render_stats,
-        )
-        .unwrap();
+        let render_stats = render_in_process(&scene, &embree, &maps.estimators(&settings));
         let render = render_stats.seconds("render");
         let g = render_stats.gathers;
         println!(

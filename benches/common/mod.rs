@@ -2,6 +2,10 @@
 //! `photondiff render` processes timed as a user runs them. Each benchmark uses part of it.
 #![allow(dead_code)]
 
+use photondiff::estimate::RadianceEstimator;
+use photondiff::render::stats::Stats;
+use photondiff::render::{render_image, RenderOptions};
+use photondiff::scene::Scene;
 use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
@@ -27,6 +31,20 @@ pub fn ratio_spread(a: &[f64], b: &[f64]) -> (f64, f64, f64) {
     let mut r: Vec<f64> = a.iter().zip(b).map(|(x, y)| x / y).collect();
     r.sort_by(f64::total_cmp);
     (r[0], r[r.len() / 2], r[r.len() - 1])
+}
+
+/// One render of `estimators` over `scene` with the default options, in this process: its
+/// statistics (the render stage's seconds, the gathers' counts).
+pub fn render_in_process(
+    scene: &Scene,
+    embree: &photondiff::embree::Scene,
+    estimators: &[Box<dyn RadianceEstimator + '_>],
+) -> Stats {
+    let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
+    let mut stats = Stats::default();
+    render_image(scene, embree, &refs, &RenderOptions::default(), &mut stats)
+        .expect("the render runs");
+    stats
 }
 
 /// Runs `photondiff render SCENE -q -o OUT ARGS...` (this package's binary); returns its wall
