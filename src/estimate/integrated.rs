@@ -39,7 +39,7 @@ use crate::geometry::disc_integral::{
     classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
 };
 use crate::photons::cover::OnSurface;
-use crate::photons::map::{FootprintQuery, PhotonMap};
+use crate::photons::map::{Flux, FootprintQuery, PhotonMap};
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
@@ -110,12 +110,14 @@ struct Scratch {
     /// Each query's [`request`], and the photons found for it.
     requests: Vec<FootprintQuery>,
     found: Vec<Vec<OnSurface>>,
-    /// The parallelograms of `batch`: (query, photon) each.
-    general: Vec<(u32, u32)>,
+    /// The parallelograms of `batch`: (query, photon's flux) each. The flux is read when the
+    /// photon joins the batch, amid the gather's arithmetic, rather than after the batch, where
+    /// each read waited on memory for a large map.
+    general: Vec<(u32, Flux)>,
     batch: ParallelogramBatch,
     means: Vec<f64>,
-    /// The quadrilaterals of `quads`: (query, photon) each.
-    general_quads: Vec<(u32, u32)>,
+    /// The quadrilaterals of `quads`: (query, photon's flux) each.
+    general_quads: Vec<(u32, Flux)>,
     quads: QuadBatch,
     quad_means: Vec<f64>,
     /// Per query of a batch, the sum of `Phi / A * mean` over its photons.
@@ -156,15 +158,16 @@ impl IntegratedEstimate<'_> {
         let mut total = Vec3::ZERO;
         // Found on the query's surface (the cover test made `on_query_surface`'s test).
         for &OnSurface(i) in found {
-            let p = &self.map.photons[i as usize];
+            // From the cover test's table, which the test has just read for this photon.
+            let (position, [m0, m1]) = self.map.filter_frame(i as usize);
             // In double precision from the query's own (not f32-rounded) point and
             // footprint: the filter map scales a pixel by its size over the photon's, so a
             // photon far smaller than the pixel (a focus) would see f32's rounding of them
             // magnified; so it is placed to within its stored position's rounding, and
             // footprints sharing a corner split it exactly.
-            let (m0, m1) = (p.m[0].as_dvec3(), p.m[1].as_dvec3());
+            let (m0, m1) = (m0.as_dvec3(), m1.as_dvec3());
             let filter = |w: DVec3| DVec2::new(m0.dot(w), m1.dot(w));
-            let s = filter(q.position - p.position.as_dvec3());
+            let s = filter(q.position - position.as_dvec3());
             let (a, b) = (filter(f[0]), filter(f[1]));
             let overlap = match exact.map(|e| (e, e.frame.classify(s, a, b))) {
                 Some((_, QuadOverlap::None)) => Overlap::None,
@@ -183,7 +186,7 @@ impl IntegratedEstimate<'_> {
                 Some((e, QuadOverlap::General(vertices))) => {
                     let k = e.weight_in_filter_space(s, a, b);
                     scratch.quads.push_weighted(vertices, k);
-                    scratch.general_quads.push((j, i));
+                    scratch.general_quads.push((j, self.map.flux[i as usize]));
                     continue;
                 }
                 // No exact footprint, or one too thin or folded: the parallelogram.
@@ -194,12 +197,13 @@ impl IntegratedEstimate<'_> {
                 Overlap::Mean(mean) => {
                     if mean > 0.0 {
                         counts.photons_used += 1;
+                        let p = &self.map.flux[i as usize];
                         total += p.power * (p.inv_area * mean as f32);
                     }
                 }
                 Overlap::General { s, a, b } => {
                     scratch.batch.push(s, a, b);
-                    scratch.general.push((j, i));
+                    scratch.general.push((j, self.map.flux[i as usize]));
                 }
             }
         }
@@ -256,10 +260,9 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             quad_means(&mut scratch.quads, &mut scratch.quad_means);
             let owners = scratch.general.iter().chain(&scratch.general_quads);
             let means = scratch.means.iter().chain(&scratch.quad_means);
-            for (&(j, i), &mean) in owners.zip(means) {
+            for (&(j, ref p), &mean) in owners.zip(means) {
                 if mean > 0.0 {
                     counts.photons_used += 1;
-                    let p = &self.map.flux[i as usize];
                     scratch.totals[j as usize] += p.power * (p.inv_area * mean as f32);
                 }
             }

@@ -162,6 +162,18 @@ impl CoverTable {
         }
     }
 
+    /// Position and filter matrix rows of the photon in `slot`, as [`Photon::position`] and
+    /// [`Photon::m`] hold them (the same `f32`s).
+    ///
+    /// An estimator reading a photon it has just found reads these rather than the photon:
+    /// the cover test has just loaded the leaf's columns, while the 80-byte photon, which
+    /// spans two cache lines, is in main memory for a large map.
+    #[inline(always)]
+    pub fn filter_frame(&self, slot: usize) -> (Vec3, [Vec3; 2]) {
+        let at = |c: &[Vec<f32>; 3]| Vec3::new(c[0][slot], c[1][slot], c[2][slot]);
+        (at(&self.position), [at(&self.m[0]), at(&self.m[1])])
+    }
+
     /// The lanes of the leaf `first..first + count` (`count <= 16`).
     #[inline(always)]
     fn load(&self, first: usize, count: usize) -> LeafLanes {
@@ -350,6 +362,10 @@ mod tests {
                 .map(|i| i as u32)
                 .collect();
             prop_assert_eq!(simd, scalar);
+            // What the estimators read of a found photon from the table is the photon's own.
+            for (i, p) in photons.iter().enumerate() {
+                prop_assert_eq!(table.filter_frame(i), (p.position, p.m));
+            }
         }
     }
 }

@@ -190,6 +190,13 @@ impl PhotonMap {
             });
     }
 
+    /// Position and filter matrix rows of photon `i` (its [`Photon::position`] and
+    /// [`Photon::m`]), read from the cover test's table ([`CoverTable::filter_frame`]).
+    #[inline(always)]
+    pub fn filter_frame(&self, i: usize) -> (Vec3, [Vec3; 2]) {
+        self.cover.filter_frame(i)
+    }
+
     /// [`PhotonMap::covering`] for each of `queries`, into `outs[j]` for query `j` (`outs`
     /// grown to hold them), each the very list `covering` gives. The queries go through the
     /// BVH sixteen at a time in one walk (neighbouring pixels' gathers visit nearly the same
