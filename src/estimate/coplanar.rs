@@ -86,11 +86,7 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
             // Only photons whose kernel may reach the view footprint (the exact disc against
             // parallelogram screen of the footprint estimators): the cube of the footprint's
             // reach let through four times as many, each clipped as a polygon for nothing.
-            let query = FootprintQuery {
-                x: q.position,
-                footprint: q.footprint,
-                normal: q.normal,
-            };
+            let query = FootprintQuery::new(q.position, q.footprint, q.normal);
             self.map.covering(&query, &mut scratch.found);
             counts.photons_found += scratch.found.len() as u64;
             let mut sum = Vec3::ZERO;

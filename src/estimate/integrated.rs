@@ -39,7 +39,7 @@ use crate::geometry::disc_integral::{
     classify, general, general_either, general_one_arc, takes_one_arc, Overlap,
 };
 use crate::photons::cover::OnSurface;
-use crate::photons::map::{Flux, FootprintQuery, PhotonMap};
+use crate::photons::map::{Flux, FootprintQuery, PacketSearch, PhotonMap};
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
@@ -97,19 +97,14 @@ fn request(q: &GatherQuery) -> FootprintQuery {
     // was read back whole, a stalled load a query (2% of the render stage).
     let g = q.exact.as_ref().map_or(1.0, |e| e.grow);
     let [f0, f1] = q.footprint;
-    FootprintQuery {
-        x: q.position,
-        footprint: [f0 * g, f1 * g],
-        normal: q.normal,
-    }
+    FootprintQuery::new(q.position, [f0 * g, f1 * g], q.normal)
 }
 
 /// Scratch space reused across gathers on one thread.
 #[derive(Default)]
 struct Scratch {
     /// Each query's [`request`], and the photons found for it.
-    requests: Vec<FootprintQuery>,
-    found: Vec<Vec<OnSurface>>,
+    search: PacketSearch<OnSurface>,
     /// The parallelograms of `batch`: (query, photon's flux) each. The flux is read when the
     /// photon joins the batch, amid the gather's arithmetic, rather than after the batch, where
     /// each read waited on memory for a large map.
@@ -247,15 +242,13 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             scratch.quads.clear();
             scratch.general_quads.clear();
             scratch.totals.clear();
-            scratch.requests.clear();
-            scratch.requests.extend(queries.iter().map(request));
-            let mut found = std::mem::take(&mut scratch.found);
-            self.map.covering_packet(&scratch.requests, &mut found);
-            for ((j, q), found) in queries.iter().enumerate().zip(&found) {
+            let mut search = std::mem::take(&mut scratch.search);
+            let found = search.run(self.map, queries.iter().map(request));
+            for ((j, q), found) in queries.iter().enumerate().zip(found) {
                 let total = self.gather(q, j as u32, found, scratch, counts);
                 scratch.totals.push(total);
             }
-            scratch.found = found;
+            scratch.search = search;
             parallelogram_means(&mut scratch.batch, &mut scratch.means);
             quad_means(&mut scratch.quads, &mut scratch.quad_means);
             let owners = scratch.general.iter().chain(&scratch.general_quads);

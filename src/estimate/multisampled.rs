@@ -15,7 +15,7 @@
 
 use super::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::photons::cover::InFilterSpace;
-use crate::photons::map::{FootprintQuery, PhotonMap};
+use crate::photons::map::{FootprintQuery, PacketSearch, PhotonMap};
 use glam::{DVec3, Vec2, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
@@ -148,9 +148,8 @@ pub fn kernel_sums_scalar(batch: &KernelBatch, offsets: &[f32], out: &mut Vec<f3
 /// Scratch space reused across gathers on one thread.
 #[derive(Default)]
 struct Scratch {
-    /// Each query's centre and footprint, and the photons found for it.
-    requests: Vec<FootprintQuery>,
-    found: Vec<Vec<InFilterSpace>>,
+    /// The packet's footprints and the photons found for them.
+    search: PacketSearch<InFilterSpace>,
     /// The photons of `batch`: (query, photon) each.
     used: Vec<(u32, u32)>,
     batch: KernelBatch,
@@ -208,18 +207,13 @@ impl RadianceEstimator for MultiSampledEstimate<'_> {
             let scratch = &mut *scratch.borrow_mut();
             scratch.batch.clear();
             scratch.used.clear();
-            scratch.requests.clear();
-            let requests = queries.iter().map(|q| FootprintQuery {
-                x: q.position,
-                footprint: q.footprint,
-                normal: q.normal,
-            });
-            scratch.requests.extend(requests);
             // Each photon found on the query's surface, with the view footprint in its filter
             // space, as the cover test computed them.
-            self.map
-                .covering_packet(&scratch.requests, &mut scratch.found);
-            for (j, found) in scratch.found[..queries.len()].iter().enumerate() {
+            let requests = queries
+                .iter()
+                .map(|q| FootprintQuery::new(q.position, q.footprint, q.normal));
+            let found = scratch.search.run(self.map, requests);
+            for (j, found) in found.iter().enumerate() {
                 counts.gathers += 1;
                 counts.photons_found += found.len() as u64;
                 for &InFilterSpace { slot, s, a, b } in found {

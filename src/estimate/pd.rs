@@ -3,22 +3,16 @@
 
 use super::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::photons::cover::InFilterSpace;
-use crate::photons::map::{FootprintQuery, PhotonMap};
+use crate::photons::map::{FootprintQuery, PacketSearch, PhotonMap};
 use glam::{DVec3, Vec3};
 use std::cell::RefCell;
 use std::f32::consts::FRAC_2_PI;
 use std::f64::consts::FRAC_1_PI;
 
-/// Buffers reused across gathers on one thread.
-#[derive(Default)]
-struct Scratch {
-    /// Each query's point, and the photons found for it with the point in their filter spaces.
-    requests: Vec<FootprintQuery>,
-    found: Vec<Vec<InFilterSpace>>,
-}
-
 thread_local! {
-    static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
+    /// A packet's points and the photons found for them, with the point in their filter
+    /// spaces; reused across packets on one thread.
+    static SEARCH: RefCell<PacketSearch<InFilterSpace>> = RefCell::new(PacketSearch::default());
 }
 
 /// The photon-differential estimate (Schjoth et al.): every photon within the map's largest
@@ -46,19 +40,13 @@ impl RadianceEstimator for PhotonDifferentialEstimate<'_> {
         out: &mut [DVec3],
         counts: &mut GatherCounts,
     ) {
-        SCRATCH.with(|scratch| {
-            let scratch = &mut *scratch.borrow_mut();
-            scratch.requests.clear();
-            scratch
-                .requests
-                .extend(queries.iter().map(|q| FootprintQuery {
-                    x: q.position,
-                    footprint: [DVec3::ZERO; 2],
-                    normal: q.normal,
-                }));
-            self.map
-                .covering_packet(&scratch.requests, &mut scratch.found);
-            for ((q, found), o) in queries.iter().zip(&scratch.found).zip(out) {
+        SEARCH.with(|search| {
+            let mut search = search.borrow_mut();
+            let points = queries
+                .iter()
+                .map(|q| FootprintQuery::new(q.position, [DVec3::ZERO; 2], q.normal));
+            let found = search.run(self.map, points);
+            for ((q, found), o) in queries.iter().zip(found).zip(out) {
                 counts.gathers += 1;
                 counts.photons_found += found.len() as u64;
                 let mut sum = Vec3::ZERO;

@@ -257,6 +257,38 @@ impl PhotonMap {
     }
 }
 
+/// A packet's footprint queries and the photons each finds, kept across packets so that
+/// searching allocates nothing once warm: what an estimator that answers a packet of gathers
+/// at once ([`crate::estimate::RadianceEstimator::radiance_batch`]) asks the map.
+pub struct PacketSearch<T> {
+    requests: Vec<FootprintQuery>,
+    found: Vec<Vec<T>>,
+}
+
+impl<T> Default for PacketSearch<T> {
+    fn default() -> Self {
+        PacketSearch {
+            requests: Vec::new(),
+            found: Vec::new(),
+        }
+    }
+}
+
+impl<T: Found> PacketSearch<T> {
+    /// What each of `requests` finds in `map` ([`PhotonMap::covering_packet`]): one list per
+    /// request, in their order.
+    pub fn run(
+        &mut self,
+        map: &PhotonMap,
+        requests: impl IntoIterator<Item = FootprintQuery>,
+    ) -> &[Vec<T>] {
+        self.requests.clear();
+        self.requests.extend(requests);
+        map.covering_packet(&self.requests, &mut self.found);
+        &self.found[..self.requests.len()]
+    }
+}
+
 /// A footprint query: the view footprint `x +- footprint[0]/2 +- footprint[1]/2` (zero for a
 /// point; non-finite edges count as zero) on a surface of normal `normal` at `x`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -271,6 +303,15 @@ pub struct FootprintQuery {
 }
 
 impl FootprintQuery {
+    /// The footprint `x +- footprint[0]/2 +- footprint[1]/2` on a surface of normal `normal`.
+    pub fn new(x: DVec3, footprint: [DVec3; 2], normal: DVec3) -> Self {
+        FootprintQuery {
+            x,
+            footprint,
+            normal,
+        }
+    }
+
     /// What [`PhotonMap::covering`] asks: the cover test's query, the box the BVH is walked
     /// with, and the prism of a thin footprint.
     fn prepare(&self) -> (CoverQuery, Aabb, Option<Prism>) {
@@ -375,7 +416,7 @@ mod tests {
                         1 => DVec3::new(0.6, 0.8, 0.0),
                         _ => DVec3::Y,
                     };
-                    FootprintQuery { x: at, footprint: f, normal }
+                    FootprintQuery::new(at, f, normal)
                 })
                 .collect();
             let mut together: Vec<Vec<u32>> = Vec::new();
