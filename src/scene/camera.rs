@@ -105,10 +105,13 @@ impl Camera {
         let dd_dx = self.right * (2.0 * self.tan_half_fov * self.aspect() / self.width as f64);
         let dd_dy = self.up * (-2.0 * self.tan_half_fov / self.height as f64);
         let dd2 = d.dot(d);
-        let norm = |dd: DVec3| (dd * dd2 - d * d.dot(dd)) / dd2.powf(1.5) * spacing;
+        let len = dd2.sqrt();
+        // (d.d)^(3/2) as a product: libm's `pow` here was 2-3% of a render's profile.
+        let scale = spacing / (dd2 * len);
+        let norm = |dd: DVec3| (dd * dd2 - d * d.dot(dd)) * scale;
         RayDifferential {
             p: self.eye,
-            d: d / dd2.sqrt(),
+            d: d / len,
             dp: [DVec3::ZERO; 2],
             dd: [norm(dd_dx), norm(dd_dy)],
         }
