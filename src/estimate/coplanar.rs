@@ -9,7 +9,8 @@ use crate::estimate::{
     RadianceEstimator,
 };
 use crate::geometry::polygon::{
-    area_centroid, ellipse_into, intersect_convex_with, parallelogram, unit_circle, ClipScratch,
+    area_centroid, clip_to_unit_square, ellipse_into, intersect_convex_with, parallelogram,
+    unit_circle, ClipScratch,
 };
 use crate::geometry::sampling::tangent_frame;
 use crate::photons::map::{FootprintQuery, PhotonMap};
@@ -74,8 +75,14 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
         let reach = if reach.is_finite() { reach } else { 0.0 };
         let (t1, t2) = tangent_frame(q.normal);
         let to_2d = |v: DVec3| DVec2::new(v.dot(t1), v.dot(t2));
-        let view = parallelogram(DVec2::ZERO, to_2d(q.footprint[0]), to_2d(q.footprint[1]));
+        let (u, v) = (to_2d(q.footprint[0]), to_2d(q.footprint[1]));
+        let view = parallelogram(DVec2::ZERO, u, v);
         let (view_area, _) = area_centroid(&view);
+        // The plane's coordinates in the view footprint's, `p = alpha u + beta v`: the footprint
+        // is the square `[-1/2, 1/2]^2` there, an affine map keeps ratios of areas and
+        // centroids, so the coverage is the clipped area itself.
+        let det = u.perp_dot(v);
+        let to_square = |p: DVec2| DVec2::new(p.perp_dot(v), u.perp_dot(p)) / det;
         let x = q.position.as_vec3();
         let n = q.normal.as_vec3();
         SCRATCH.with(|scratch| {
@@ -102,19 +109,20 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
                         continue;
                     }
                     // The footprint's semi-axis vectors: M's rows are axis / sigma.
-                    let axis = |m: Vec3| to_2d((m / m.length_squared()).as_dvec3());
+                    let axis = |m: Vec3| to_square(to_2d((m / m.length_squared()).as_dvec3()));
                     ellipse_into(
-                        centre,
+                        to_square(centre),
                         axis(p.m[0]),
                         axis(p.m[1]),
                         &scratch.unit,
                         &mut scratch.polygon,
                     );
-                    let (w, c) =
-                        coverage_with(&scratch.polygon, &view, view_area, &mut scratch.clip);
+                    let (w, c) = clip_to_unit_square(&scratch.polygon, &mut scratch.clip);
+                    let w = w.clamp(0.0, 1.0);
                     if w <= 0.0 {
                         continue;
                     }
+                    let c = u * c.x + v * c.y;
                     let c = q.position + t1 * c.x + t2 * c.y;
                     photon_kernel(p, c.as_vec3() - p.position, n).map(|k| k * w as f32)
                 } else {
