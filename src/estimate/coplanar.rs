@@ -9,8 +9,7 @@ use crate::estimate::{
     RadianceEstimator,
 };
 use crate::geometry::polygon::{
-    area_centroid, clip_to_unit_square, ellipse_into, intersect_convex_with, parallelogram,
-    unit_circle, ClipScratch,
+    area_centroid, clip_to_unit_square, ellipse_into, intersect_convex, unit_circle, ClipScratch,
 };
 use crate::geometry::sampling::tangent_frame;
 use crate::photons::map::{FootprintQuery, PhotonMap};
@@ -29,25 +28,11 @@ pub struct CoplanarEstimate<'a> {
 /// Coverage `w` (intersection area over the view footprint's area) and centroid (in the plane's
 /// 2D coordinates) of a photon footprint polygon against the view footprint polygon.
 pub fn coverage(photon: &[DVec2], view: &[DVec2]) -> (f64, DVec2) {
-    coverage_with(
-        photon,
-        view,
-        area_centroid(view).0,
-        &mut ClipScratch::default(),
-    )
-}
-
-/// [`coverage`] with the view footprint's area precomputed and reusable clipping buffers.
-fn coverage_with(
-    photon: &[DVec2],
-    view: &[DVec2],
-    view_area: f64,
-    scratch: &mut ClipScratch,
-) -> (f64, DVec2) {
+    let (view_area, view_centroid) = area_centroid(view);
     if view_area <= 0.0 {
-        return (0.0, area_centroid(view).1);
+        return (0.0, view_centroid);
     }
-    let (area, centroid) = area_centroid(intersect_convex_with(photon, view, scratch));
+    let (area, centroid) = area_centroid(&intersect_convex(photon, view));
     ((area / view_area).clamp(0.0, 1.0), centroid)
 }
 
@@ -76,12 +61,12 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
         let (t1, t2) = tangent_frame(q.normal);
         let to_2d = |v: DVec3| DVec2::new(v.dot(t1), v.dot(t2));
         let (u, v) = (to_2d(q.footprint[0]), to_2d(q.footprint[1]));
-        let view = parallelogram(DVec2::ZERO, u, v);
-        let (view_area, _) = area_centroid(&view);
         // The plane's coordinates in the view footprint's, `p = alpha u + beta v`: the footprint
         // is the square `[-1/2, 1/2]^2` there, an affine map keeps ratios of areas and
-        // centroids, so the coverage is the clipped area itself.
+        // centroids, so the coverage is the clipped area itself ([`coverage`] over the
+        // footprint's polygon is the definition it is tested against).
         let det = u.perp_dot(v);
+        let view_area = det.abs();
         let to_square = |p: DVec2| DVec2::new(p.perp_dot(v), u.perp_dot(p)) / det;
         let x = q.position.as_vec3();
         let n = q.normal.as_vec3();
@@ -143,6 +128,7 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::polygon::parallelogram;
 
     #[test]
     fn identical_footprints_cover_fully_and_disjoint_ones_not_at_all() {

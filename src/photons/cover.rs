@@ -16,7 +16,7 @@ use glam::{Vec2, Vec3};
 use wide::f32x16;
 
 mod found;
-pub use found::{Found, InFilterSpace, OnSurface, Tested};
+pub use found::{Found, InFilterSpace, OnSurface};
 
 /// How far off its tangent plane a query point may lie and still see a photon, as a fraction of
 /// the photon's radius (`estimate::on_query_surface`).
@@ -246,7 +246,7 @@ fn push_found<T: Found>(first: usize, leaf: &LeafLanes, q: &CoverQuery, out: &mu
     if bits == 0 {
         return;
     }
-    let rows = T::rows(&Tested { filter });
+    let rows = T::rows(&filter);
     while bits != 0 {
         let k = bits.trailing_zeros() as usize;
         out.push(T::new((first + k) as u32, &rows, k));

@@ -5,13 +5,6 @@
 use super::{Lanes, LANES};
 use glam::Vec2;
 
-/// The cover test's lanes for one leaf and one query, from which a record takes its numbers.
-pub struct Tested {
-    /// The footprint in the photons' filter spaces as the test computed it: `s.x, s.y, a.x,
-    /// a.y, b.x, b.y`.
-    pub(super) filter: [Lanes; 6],
-}
-
 /// What a query keeps of each photon it finds: its slot alone (`u32`), or with the view
 /// footprint in its filter space ([`InFilterSpace`]).
 ///
@@ -25,8 +18,10 @@ pub trait Found: Sized {
     const ON_SURFACE: bool;
     /// What the records of one leaf read, taken out of the lanes once a leaf and query.
     type Rows;
-    /// The numbers of `tested`'s leaf that its records read.
-    fn rows(tested: &Tested) -> Self::Rows;
+    /// What the records of a leaf read of `filter`, the footprint in its photons' filter spaces
+    /// as the cover test computed it for the query (`s.x, s.y, a.x, a.y, b.x, b.y`, a photon a
+    /// lane).
+    fn rows(filter: &[Lanes; 6]) -> Self::Rows;
     /// The record of the photon in `slot`, lane `k` of its leaf's `rows`.
     fn new(slot: u32, rows: &Self::Rows, k: usize) -> Self;
 }
@@ -35,7 +30,7 @@ impl Found for u32 {
     const ON_SURFACE: bool = false;
     type Rows = ();
     #[inline(always)]
-    fn rows(_: &Tested) {}
+    fn rows(_: &[Lanes; 6]) {}
     #[inline(always)]
     fn new(slot: u32, _: &(), _: usize) -> Self {
         slot
@@ -52,7 +47,7 @@ impl Found for OnSurface {
     const ON_SURFACE: bool = true;
     type Rows = ();
     #[inline(always)]
-    fn rows(_: &Tested) {}
+    fn rows(_: &[Lanes; 6]) {}
     #[inline(always)]
     fn new(slot: u32, _: &(), _: usize) -> Self {
         OnSurface(slot)
@@ -79,8 +74,8 @@ impl Found for InFilterSpace {
     const ON_SURFACE: bool = true;
     type Rows = [[f32; LANES]; 6];
     #[inline(always)]
-    fn rows(tested: &Tested) -> Self::Rows {
-        tested.filter.map(|l| l.to_array())
+    fn rows(filter: &[Lanes; 6]) -> Self::Rows {
+        filter.map(|l| l.to_array())
     }
     #[inline(always)]
     fn new(slot: u32, r: &Self::Rows, k: usize) -> Self {
