@@ -5,14 +5,12 @@
 //! `sum f_r Phi_p / A_p K(|M_p (c - x_p)|) w`.
 
 use crate::estimate::{
-    footprint_circumradius, on_query_surface, photon_kernel, GatherCounts, GatherQuery,
-    RadianceEstimator,
+    batch_of_one, footprint_circumradius, on_query_surface, photon_kernel, GatherCounts,
+    GatherQuery, RadianceEstimator,
 };
-use crate::geometry::polygon::{
-    area_centroid, clip_to_unit_square, ellipse_into, intersect_convex, unit_circle, ClipScratch,
-};
+use crate::geometry::polygon::{area_centroid, intersect_convex, ClipScratch, UnitPolygon};
 use crate::geometry::sampling::tangent_frame;
-use crate::photons::map::{FootprintQuery, PhotonMap};
+use crate::photons::map::{FootprintQuery, PacketSearch, PhotonMap};
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::FRAC_1_PI;
@@ -39,8 +37,9 @@ pub fn coverage(photon: &[DVec2], view: &[DVec2]) -> (f64, DVec2) {
 /// Buffers reused across gathers on one thread.
 #[derive(Default)]
 struct Scratch {
-    found: Vec<u32>,
-    unit: Vec<DVec2>,
+    /// A packet's footprints and the photons found for each.
+    search: PacketSearch<u32>,
+    unit: Option<UnitPolygon>,
     polygon: Vec<DVec2>,
     clip: ClipScratch,
 }
@@ -49,13 +48,20 @@ thread_local! {
     static SCRATCH: RefCell<Scratch> = RefCell::new(Scratch::default());
 }
 
-impl RadianceEstimator for CoplanarEstimate<'_> {
-    fn integrates_view_footprint(&self) -> bool {
-        true
-    }
-
-    fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
+impl CoplanarEstimate<'_> {
+    /// The estimate at `q` over the photons `found` for its footprint, each photon's ellipse
+    /// an image of `unit`.
+    fn gather(
+        &self,
+        q: &GatherQuery,
+        found: &[u32],
+        unit: &UnitPolygon,
+        polygon: &mut Vec<DVec2>,
+        clip: &mut ClipScratch,
+        counts: &mut GatherCounts,
+    ) -> DVec3 {
         counts.gathers += 1;
+        counts.photons_found += found.len() as u64;
         let reach = footprint_circumradius(&q.footprint);
         let reach = if reach.is_finite() { reach } else { 0.0 };
         let (t1, t2) = tangent_frame(q.normal);
@@ -70,57 +76,88 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
         let to_square = |p: DVec2| DVec2::new(p.perp_dot(v), u.perp_dot(p)) / det;
         let x = q.position.as_vec3();
         let n = q.normal.as_vec3();
-        SCRATCH.with(|scratch| {
-            let scratch = &mut *scratch.borrow_mut();
-            if scratch.unit.len() != self.ellipse_vertices.max(3) {
-                scratch.unit = unit_circle(self.ellipse_vertices);
+        let mut sum = Vec3::ZERO;
+        for &i in found {
+            let p = &self.map.photons[i as usize];
+            if !on_query_surface(p, x - p.position, n) {
+                continue;
             }
+            let contribution = if view_area > 0.0 && view_area.is_finite() {
+                let centre = to_2d(p.position.as_dvec3() - q.position);
+                // Bounding circles apart: no intersection, no polygon work.
+                if centre.length() > p.radius as f64 + reach {
+                    continue;
+                }
+                // The footprint's semi-axis vectors: M's rows are axis / sigma.
+                let axis = |m: Vec3| to_square(to_2d((m / m.length_squared()).as_dvec3()));
+                let (w, c) = unit.in_unit_square(
+                    to_square(centre),
+                    axis(p.m[0]),
+                    axis(p.m[1]),
+                    polygon,
+                    clip,
+                );
+                let w = w.clamp(0.0, 1.0);
+                if w <= 0.0 {
+                    continue;
+                }
+                let c = u * c.x + v * c.y;
+                let c = q.position + t1 * c.x + t2 * c.y;
+                photon_kernel(p, c.as_vec3() - p.position, n).map(|k| k * w as f32)
+            } else {
+                // A degenerate view footprint is a point: the plain photon-differential
+                // estimate.
+                photon_kernel(p, x - p.position, n)
+            };
+            if let Some(c) = contribution {
+                counts.photons_used += 1;
+                sum += c;
+            }
+        }
+        q.albedo * FRAC_1_PI * sum.as_dvec3()
+    }
+}
+
+impl RadianceEstimator for CoplanarEstimate<'_> {
+    fn integrates_view_footprint(&self) -> bool {
+        true
+    }
+
+    fn radiance(&self, q: &GatherQuery, counts: &mut GatherCounts) -> DVec3 {
+        batch_of_one(self, q, counts)
+    }
+
+    /// The packet's footprints go through the map together ([`PhotonMap::covering_packet`]:
+    /// each finds what it would alone); then each query is gathered in turn.
+    fn radiance_batch(
+        &self,
+        queries: &[GatherQuery],
+        _shares: &[f64],
+        out: &mut [DVec3],
+        counts: &mut GatherCounts,
+    ) {
+        SCRATCH.with(|scratch| {
+            let Scratch {
+                search,
+                unit,
+                polygon,
+                clip,
+            } = &mut *scratch.borrow_mut();
+            let vertices = self.ellipse_vertices.max(3);
+            if unit.as_ref().map(|u| u.vertices().len()) != Some(vertices) {
+                *unit = Some(UnitPolygon::new(vertices));
+            }
+            let unit = unit.as_ref().expect("just set");
             // Only photons whose kernel may reach the view footprint (the exact disc against
             // parallelogram screen of the footprint estimators): the cube of the footprint's
             // reach let through four times as many, each clipped as a polygon for nothing.
-            let query = FootprintQuery::new(q.position, q.footprint, q.normal);
-            self.map.covering(&query, &mut scratch.found);
-            counts.photons_found += scratch.found.len() as u64;
-            let mut sum = Vec3::ZERO;
-            for &i in &scratch.found {
-                let p = &self.map.photons[i as usize];
-                if !on_query_surface(p, x - p.position, n) {
-                    continue;
-                }
-                let contribution = if view_area > 0.0 && view_area.is_finite() {
-                    let centre = to_2d(p.position.as_dvec3() - q.position);
-                    // Bounding circles apart: no intersection, no polygon work.
-                    if centre.length() > p.radius as f64 + reach {
-                        continue;
-                    }
-                    // The footprint's semi-axis vectors: M's rows are axis / sigma.
-                    let axis = |m: Vec3| to_square(to_2d((m / m.length_squared()).as_dvec3()));
-                    ellipse_into(
-                        to_square(centre),
-                        axis(p.m[0]),
-                        axis(p.m[1]),
-                        &scratch.unit,
-                        &mut scratch.polygon,
-                    );
-                    let (w, c) = clip_to_unit_square(&scratch.polygon, &mut scratch.clip);
-                    let w = w.clamp(0.0, 1.0);
-                    if w <= 0.0 {
-                        continue;
-                    }
-                    let c = u * c.x + v * c.y;
-                    let c = q.position + t1 * c.x + t2 * c.y;
-                    photon_kernel(p, c.as_vec3() - p.position, n).map(|k| k * w as f32)
-                } else {
-                    // A degenerate view footprint is a point: the plain photon-differential
-                    // estimate.
-                    photon_kernel(p, x - p.position, n)
-                };
-                if let Some(c) = contribution {
-                    counts.photons_used += 1;
-                    sum += c;
-                }
+            let requests = queries
+                .iter()
+                .map(|q| FootprintQuery::new(q.position, q.footprint, q.normal));
+            let found = search.run(self.map, requests);
+            for ((q, found), o) in queries.iter().zip(found).zip(out) {
+                *o = self.gather(q, found, unit, polygon, clip, counts);
             }
-            q.albedo * FRAC_1_PI * sum.as_dvec3()
         })
     }
 }

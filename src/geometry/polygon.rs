@@ -7,6 +7,9 @@
 
 use glam::DVec2;
 
+mod unit_square;
+pub use unit_square::{clip_to_unit_square, UnitPolygon};
+
 /// Twice the signed area of a polygon (positive when counter-clockwise).
 fn twice_signed_area(points: &[DVec2]) -> f64 {
     let n = points.len();
@@ -23,23 +26,23 @@ pub fn area_centroid(points: &[DVec2]) -> (f64, DVec2) {
     }
     // Relative to the first vertex, for precision far from the origin.
     let o = points[0];
-    let n = points.len();
     let mut a2 = 0.0;
     let mut c = DVec2::ZERO;
-    for i in 0..n {
-        let p = points[i] - o;
-        let q = points[(i + 1) % n] - o;
+    // Edge by edge, the last closing the polygon (pairs by iterator: an index modulo the
+    // length costs a division a vertex).
+    for (&p, &q) in points.iter().zip(points[1..].iter().chain(&points[..1])) {
+        let (p, q) = (p - o, q - o);
         let cross = p.perp_dot(q);
         a2 += cross;
         c += (p + q) * cross;
     }
-    let mean = points.iter().copied().sum::<DVec2>() / n as f64;
+    let mean = || points.iter().copied().sum::<DVec2>() / points.len() as f64;
     if a2.abs() <= 1e-300 || !a2.is_finite() {
-        return (0.0, mean);
+        return (0.0, mean());
     }
     let centroid = o + c / (3.0 * a2);
     if !centroid.is_finite() {
-        return (0.0, mean);
+        return (0.0, mean());
     }
     (0.5 * a2.abs(), centroid)
 }
@@ -136,52 +139,6 @@ pub fn intersect_convex_with<'s>(
     current
 }
 
-/// Area and centroid of the part of the convex polygon `subject` (vertices in order, either
-/// orientation) inside the square `[-1/2, 1/2]^2`: [`intersect_convex`] with that square and
-/// [`area_centroid`], for the coplanar estimate, which maps each view footprint onto this square.
-///
-/// Why its own clipper: the square's sides are axis-aligned, so a vertex's side is a comparison
-/// of one coordinate, with no square root and no normalisation of the clip polygon; a polygon
-/// whose bounding box lies inside the square is not clipped at all. (The general clipper took
-/// two thirds of the coplanar estimate's render stage.)
-pub fn clip_to_unit_square(subject: &[DVec2], scratch: &mut ClipScratch) -> (f64, DVec2) {
-    let (lo, hi) = subject.iter().fold(
-        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-    );
-    if lo.min_element() >= -0.5 && hi.max_element() <= 0.5 {
-        return area_centroid(subject);
-    }
-    if lo.x > 0.5 || lo.y > 0.5 || hi.x < -0.5 || hi.y < -0.5 || !(lo.is_finite() && hi.is_finite())
-    {
-        return (0.0, DVec2::ZERO);
-    }
-    let ClipScratch { current, next, .. } = scratch;
-    current.clear();
-    current.extend_from_slice(subject);
-    // Each side: coordinate `axis` times `sign` at most 1/2.
-    for (axis, sign) in [(0, 1.0), (0, -1.0), (1, 1.0), (1, -1.0)] {
-        next.clear();
-        let n = current.len();
-        for j in 0..n {
-            let (p, q) = (current[j], current[(j + 1) % n]);
-            let (dp, dq) = (0.5 - sign * p[axis], 0.5 - sign * q[axis]);
-            if dp >= 0.0 {
-                next.push(p);
-            }
-            if (dp >= 0.0) != (dq >= 0.0) {
-                let t = (dp / (dp - dq)).clamp(0.0, 1.0);
-                next.push(p + (q - p) * t);
-            }
-        }
-        std::mem::swap(current, next);
-        if current.len() < 3 {
-            return (0.0, DVec2::ZERO);
-        }
-    }
-    area_centroid(current)
-}
-
 /// The parallelogram `centre +- u/2 +- v/2`.
 pub fn parallelogram(centre: DVec2, u: DVec2, v: DVec2) -> [DVec2; 4] {
     let (hu, hv) = (u * 0.5, v * 0.5);
@@ -259,40 +216,6 @@ mod tests {
 
     fn square(c: DVec2, s: f64) -> Vec<DVec2> {
         parallelogram(c, DVec2::X * s, DVec2::Y * s).to_vec()
-    }
-
-    #[test]
-    fn clipping_to_the_unit_square_is_intersecting_with_it() {
-        let unit = square(DVec2::ZERO, 1.0);
-        let mut scratch = ClipScratch::default();
-        let mut checked = 0;
-        for k in 0..2000 {
-            let t = k as f64;
-            // Ellipses (16-gons) of every size and place about the square, either orientation.
-            let centre =
-                DVec2::new((t * 0.37).sin(), (t * 0.53).cos()) * (0.2 + (t * 0.11).sin().abs());
-            let a = DVec2::new((t * 0.7).cos(), (t * 0.3).sin()) * (0.01 + (t * 0.17).cos().abs());
-            let b =
-                DVec2::new(-(t * 0.29).sin(), (t * 0.41).cos()) * (0.01 + (t * 0.23).sin().abs());
-            let polygon = ellipse(centre, a, b, 16);
-            let (area, c) = clip_to_unit_square(&polygon, &mut scratch);
-            let (expected, ec) = area_centroid(&intersect_convex(&polygon, &unit));
-            assert!(
-                (area - expected).abs() <= 1e-12,
-                "{k}: {area} vs {expected}"
-            );
-            if expected > 1e-9 {
-                assert!((c - ec).length() <= 1e-9, "{k}: {c} vs {ec}");
-                checked += 1;
-            }
-        }
-        assert!(checked > 1000, "{checked} overlapping cases");
-        // Inside, outside, and a square that holds the polygon's edge exactly.
-        assert_eq!(clip_to_unit_square(&unit, &mut scratch).0, 1.0);
-        assert_eq!(
-            clip_to_unit_square(&square(DVec2::new(3.0, 0.0), 1.0), &mut scratch).0,
-            0.0
-        );
     }
 
     #[test]
