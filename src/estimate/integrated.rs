@@ -32,7 +32,8 @@
 //! (`pd`). The gather asks the map for every photon whose footprint may overlap `V`
 //! ([`PhotonMap::covering`]), as the multi-sampled estimate does.
 
-use super::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
+use super::{batch_of_one, ExactFootprint, GatherCounts, GatherQuery, RadianceEstimator};
+use crate::geometry::disc_integral::general_lanes::{classify_parallelograms, Placements};
 use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadOverlap};
 use crate::geometry::disc_integral::rows::{Rows, Wide};
 use crate::geometry::disc_integral::{
@@ -151,58 +152,130 @@ impl IntegratedEstimate<'_> {
         counts.exact_footprints += u64::from(exact.is_some());
         counts.photons_found += found.len() as u64;
         let mut total = Vec3::ZERO;
-        // Found on the query's surface (the cover test made `on_query_surface`'s test).
-        for &OnSurface(i) in found {
-            // From the cover test's table, which the test has just read for this photon.
-            let (position, [m0, m1]) = self.map.filter_frame(i as usize);
-            // In double precision from the query's own (not f32-rounded) point and
-            // footprint: the filter map scales a pixel by its size over the photon's, so a
-            // photon far smaller than the pixel (a focus) would see f32's rounding of them
-            // magnified; so it is placed to within its stored position's rounding, and
-            // footprints sharing a corner split it exactly.
-            let (m0, m1) = (m0.as_dvec3(), m1.as_dvec3());
-            let filter = |w: DVec3| DVec2::new(m0.dot(w), m1.dot(w));
-            let s = filter(q.position - position.as_dvec3());
-            let (a, b) = (filter(f[0]), filter(f[1]));
-            let overlap = match exact.map(|e| (e, e.frame.classify(s, a, b))) {
-                Some((_, QuadOverlap::None)) => Overlap::None,
-                // The quadrilateral inside the disc (or a point to it): weighted at the
-                // kernel's centroid over it.
-                Some((e, QuadOverlap::Mean(mean))) => {
-                    Overlap::Mean(e.weighted_inside(s, a, b, mean))
-                }
-                // The kernel's mass lies about the photon: the image-area weight at its
-                // centre (exact for a weight linear over the footprint).
-                Some((e, QuadOverlap::DiscInside(mean))) => {
-                    Overlap::Mean(mean * e.weight_in_filter_space(s, a, b)[0])
-                }
-                // The weight, linear over the footprint, integrated with the kernel by
-                // the general formula's batch (its integral and first moment).
-                Some((e, QuadOverlap::General(vertices))) => {
-                    let k = e.weight_in_filter_space(s, a, b);
-                    scratch.quads.push_weighted(vertices, k);
-                    scratch.general_quads.push((j, self.map.flux[i as usize]));
-                    continue;
-                }
-                // No exact footprint, or one too thin or folded: the parallelogram.
-                Some((_, QuadOverlap::NotConvex)) | None => classify(s, a, b),
-            };
-            match overlap {
-                Overlap::None => {}
-                Overlap::Mean(mean) => {
-                    if mean > 0.0 {
-                        counts.photons_used += 1;
-                        let p = &self.map.flux[i as usize];
-                        total += p.power * (p.inv_area * mean as f32);
+        // Found on the query's surface (the cover test made `on_query_surface`'s test), a
+        // chunk of lanes at a time: the tests that send a photon to the general formula run
+        // in SIMD lanes ([`general_lanes`]), and only the others go through the scalar
+        // classification (in the order found either way, so the sums are a lone gather's).
+        for chunk in found.chunks(LANES) {
+            // Padding: far from the disc.
+            let (mut s, mut a, mut b) = (
+                [DVec2::new(1e6, 0.0); LANES],
+                [DVec2::X; LANES],
+                [DVec2::Y; LANES],
+            );
+            for (k, &OnSurface(i)) in chunk.iter().enumerate() {
+                // From the cover test's table, which the test has just read for this photon.
+                let (position, [m0, m1]) = self.map.filter_frame(i as usize);
+                // In double precision from the query's own (not f32-rounded) point and
+                // footprint: the filter map scales a pixel by its size over the photon's, so
+                // a photon far smaller than the pixel (a focus) would see f32's rounding of
+                // them magnified; so it is placed to within its stored position's rounding,
+                // and footprints sharing a corner split it exactly.
+                let (m0, m1) = (m0.as_dvec3(), m1.as_dvec3());
+                let filter = |w: DVec3| DVec2::new(m0.dot(w), m1.dot(w));
+                s[k] = filter(q.position - position.as_dvec3());
+                (a[k], b[k]) = (filter(f[0]), filter(f[1]));
+            }
+            let lanes = Placements::new(&s, &a, &b);
+            match exact {
+                Some(e) => {
+                    let general = e.frame.general_lanes(&lanes);
+                    for (k, &OnSurface(i)) in chunk.iter().enumerate() {
+                        if general.mask >> k & 1 == 1 {
+                            let weight = e.weight_in_filter_space(s[k], a[k], b[k]);
+                            scratch.quads.push_weighted(general.lane(k), weight);
+                            scratch.general_quads.push((j, self.map.flux[i as usize]));
+                        } else {
+                            let overlap = self.settle(e, (s[k], a[k], b[k]), i, j, scratch);
+                            total += self.closed_form(overlap, i, j, scratch, counts);
+                        }
                     }
                 }
-                Overlap::General { s, a, b } => {
-                    scratch.batch.push(s, a, b);
-                    scratch.general.push((j, self.map.flux[i as usize]));
+                None => {
+                    let settled = classify_parallelograms(&lanes);
+                    for (k, &OnSurface(i)) in chunk.iter().enumerate() {
+                        let overlap = if settled.general >> k & 1 == 1 {
+                            Overlap::General {
+                                s: s[k],
+                                a: a[k],
+                                b: b[k],
+                            }
+                        } else if settled.settled >> k & 1 == 1 {
+                            Overlap::Mean(settled.means[k])
+                        } else {
+                            classify(s[k], a[k], b[k])
+                        };
+                        total += self.closed_form(overlap, i, j, scratch, counts);
+                    }
                 }
             }
         }
         total
+    }
+
+    /// What the scalar classification settles for a photon (slot `i`) placed at `(s, a, b)`
+    /// against the exact footprint `e`, for query `j`: `Overlap::None` where the general
+    /// formula's batch has taken the photon (a general quadrilateral).
+    #[inline(always)]
+    fn settle(
+        &self,
+        e: &ExactFootprint,
+        (s, a, b): (DVec2, DVec2, DVec2),
+        i: u32,
+        j: u32,
+        scratch: &mut Scratch,
+    ) -> Overlap {
+        match e.frame.classify(s, a, b) {
+            QuadOverlap::None => Overlap::None,
+            // The quadrilateral inside the disc (or a point to it): weighted at the kernel's
+            // centroid over it.
+            QuadOverlap::Mean(mean) => Overlap::Mean(e.weighted_inside(s, a, b, mean)),
+            // The kernel's mass lies about the photon: the image-area weight at its centre
+            // (exact for a weight linear over the footprint).
+            QuadOverlap::DiscInside(mean) => {
+                Overlap::Mean(mean * e.weight_in_filter_space(s, a, b)[0])
+            }
+            // The weight, linear over the footprint, integrated with the kernel by the
+            // general formula's batch (its integral and first moment).
+            QuadOverlap::General(vertices) => {
+                let k = e.weight_in_filter_space(s, a, b);
+                scratch.quads.push_weighted(vertices, k);
+                scratch.general_quads.push((j, self.map.flux[i as usize]));
+                Overlap::None
+            }
+            // Too thin or folded: the parallelogram.
+            QuadOverlap::NotConvex => classify(s, a, b),
+        }
+    }
+
+    /// Photon `i`'s contribution where `overlap` is a closed form; a general parallelogram
+    /// joins the batch (for query `j`) and contributes later.
+    #[inline(always)]
+    fn closed_form(
+        &self,
+        overlap: Overlap,
+        i: u32,
+        j: u32,
+        scratch: &mut Scratch,
+        counts: &mut GatherCounts,
+    ) -> Vec3 {
+        match overlap {
+            Overlap::None => Vec3::ZERO,
+            Overlap::Mean(mean) => {
+                if mean > 0.0 {
+                    counts.photons_used += 1;
+                    let p = &self.map.flux[i as usize];
+                    p.power * (p.inv_area * mean as f32)
+                } else {
+                    Vec3::ZERO
+                }
+            }
+            Overlap::General { s, a, b } => {
+                scratch.batch.push(s, a, b);
+                scratch.general.push((j, self.map.flux[i as usize]));
+                Vec3::ZERO
+            }
+        }
     }
 }
 

@@ -393,6 +393,7 @@ fn thickened(a: DVec2, b: DVec2, size2: f64) -> (DVec2, DVec2) {
     }
 }
 
+pub mod general_lanes;
 pub mod moment;
 pub mod quad;
 pub mod quad_frame;

@@ -105,6 +105,26 @@ impl QuadFrame {
         }
     }
 
+    /// The vertices' `alpha` coordinates.
+    pub(super) fn alpha(&self) -> [f64; 4] {
+        self.alpha
+    }
+
+    /// The vertices' `beta` coordinates.
+    pub(super) fn beta(&self) -> [f64; 4] {
+        self.beta
+    }
+
+    /// The largest squared distance of a vertex from [`QuadFrame::centre`].
+    pub(super) fn spread2(&self) -> f64 {
+        self.spread2
+    }
+
+    /// The signed area in `(alpha, beta)`.
+    pub(super) fn signed_area(&self) -> f64 {
+        self.area
+    }
+
     /// The area centroid in `(alpha, beta)`.
     pub fn centroid(&self) -> DVec2 {
         DVec2::new(self.moments[0], self.moments[1])
