@@ -14,8 +14,11 @@
 //! the light tracer (which splats each path with that very Jacobian) and against the photons
 //! themselves binned the same way.
 
+use crate::geometry::disc_integral::general_lanes::Placements;
 use crate::geometry::disc_integral::quad_frame::{FrameNumbers, QuadFrame};
+use crate::geometry::disc_integral::rows::{Wide, LANES};
 use crate::geometry::lanes::splat3;
+use crate::geometry::lanes::Lane;
 use glam::{DVec2, DVec3};
 
 mod prepare;
@@ -104,12 +107,14 @@ impl ExactFootprint {
     /// the weight at the photon's centre (`u = 0`).
     #[inline]
     pub fn weight_in_filter_space(&self, s: DVec2, a: DVec2, b: DVec2) -> [f64; 3] {
-        // (alpha, beta) = [a b]^-1 (u - s).
-        let inv_det = 1.0 / a.perp_dot(b);
-        let [w0, wa, wb] = self.weight;
-        let kx = (wa * b.y - wb * a.y) * inv_det;
-        let ky = (wb * a.x - wa * b.x) * inv_det;
-        [w0 - kx * s.x - ky * s.y, kx, ky]
+        weight_in_filter_space(self.weight, s.to_array(), a.to_array(), b.to_array())
+    }
+
+    /// [`ExactFootprint::weight_in_filter_space`] for each lane of `p`: `k[0]`, `k[1]`, `k[2]`
+    /// as columns.
+    #[inline]
+    pub fn weights_in_filter_space(&self, p: &Placements) -> [[f64; LANES]; 3] {
+        weight_in_filter_space(self.weight, p.s, p.a, p.b).map(Wide::to_array)
     }
 
     /// `mean` weighted at the kernel's centroid over the quadrilateral `s + alpha a + beta b`
@@ -142,6 +147,18 @@ impl ExactFootprint {
     pub fn weight_at(&self, at: DVec2) -> f64 {
         self.weight[0] + self.weight[1] * at.x + self.weight[2] * at.y
     }
+}
+
+/// The weight `w[0] + w[1] alpha + w[2] beta` where the footprint is `s + alpha a + beta b`, as
+/// `k[0] + k[1] u_x + k[2] u_y` (for one lane or many).
+#[inline(always)]
+fn weight_in_filter_space<T: Lane>(w: [f64; 3], s: [T; 2], a: [T; 2], b: [T; 2]) -> [T; 3] {
+    // (alpha, beta) = [a b]^-1 (u - s).
+    let inv_det = T::splat(1.0) / (a[0] * b[1] - a[1] * b[0]);
+    let [w0, wa, wb] = w.map(T::splat);
+    let kx = (wa * b[1] - wb * a[1]) * inv_det;
+    let ky = (wb * a[0] - wa * b[0]) * inv_det;
+    [w0 - kx * s[0] - ky * s[1], kx, ky]
 }
 
 #[cfg(test)]

@@ -180,9 +180,10 @@ impl IntegratedEstimate<'_> {
             match exact {
                 Some(e) => {
                     let general = e.frame.general_lanes(&lanes);
+                    let weights = e.weights_in_filter_space(&lanes);
                     for (k, &OnSurface(i)) in chunk.iter().enumerate() {
                         if general.mask >> k & 1 == 1 {
-                            let weight = e.weight_in_filter_space(s[k], a[k], b[k]);
+                            let weight = weights.map(|column| column[k]);
                             scratch.quads.push_weighted(general.lane(k), weight);
                             scratch.general_quads.push((j, self.map.flux[i as usize]));
                         } else {
