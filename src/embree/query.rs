@@ -172,9 +172,11 @@ impl Scene {
     }
 
     /// Traces up to 16 rays as one packet and calls `visit` with each lane that hit and its
-    /// answer. The hit triangles' indices, then their vertices, are read for every lane before
-    /// the next step: on a large mesh each read is a cache miss, and one lane at a time they
-    /// would wait in turn; so the lanes' misses overlap.
+    /// answer. The hit triangles' indices are read for every lane, then their vertices are
+    /// prefetched for every lane, before any is used: on a large mesh each read is a cache
+    /// miss, and one lane at a time they would wait in turn; so the lanes' misses overlap.
+    /// (Prefetched rather than copied out: a packet-sized array of vertices would be zeroed
+    /// and copied twice on every call.)
     fn for_each_hit16(&self, rays: &[Ray], coherent: bool, mut visit: impl FnMut(usize, LaneHit)) {
         let (mut packet, mut valid) = (RayHit16::default(), Valid16::default());
         self.trace16(rays, coherent, &mut packet, &mut valid);
@@ -188,19 +190,19 @@ impl Scene {
             ids[l] = top_level(h.geomID[l], h.instID[0][l]);
             triangles[l] = self.geometries[ids[l] as usize].triangle(h.primID[l]);
         }
-        let mut vertices = [([DVec3::ZERO; 3], None); PACKET_WIDTH];
         for l in hit_lanes() {
-            vertices[l] = self.geometries[ids[l] as usize].world_vertices(triangles[l]);
+            self.geometries[ids[l] as usize].prefetch_vertices(triangles[l]);
         }
         for l in hit_lanes() {
-            let (u, v) = self.geometries[ids[l] as usize].barycentrics(h.u[l], h.v[l]);
+            let geometry = &self.geometries[ids[l] as usize];
+            let (u, v) = geometry.barycentrics(h.u[l], h.v[l]);
             let answer = LaneHit {
                 id: ids[l],
                 prim: h.primID[l],
                 u,
                 v,
                 tfar: r.tfar[l],
-                vertices: vertices[l],
+                vertices: geometry.world_vertices(triangles[l]),
             };
             visit(l, answer);
         }

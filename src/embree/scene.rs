@@ -85,6 +85,24 @@ impl Geometry {
         }
     }
 
+    /// Asks the CPU to start loading the vertices (and vertex normals) of the triangle with
+    /// vertex indices `tri`, so that several lanes' cache misses overlap before
+    /// [`Geometry::world_vertices`] reads them.
+    #[inline]
+    pub(super) fn prefetch_vertices(&self, tri: [u32; 3]) {
+        let fetch = |a: &[[f32; 3]]| {
+            for &i in &tri {
+                if let Some(v) = a.get(i as usize) {
+                    prefetch(v);
+                }
+            }
+        };
+        fetch(&self.mesh.positions);
+        if let Some(n) = self.mesh.normals.as_deref() {
+            fetch(n);
+        }
+    }
+
     /// Embree's barycentrics `(u, v)` of a hit, in the vertex order of
     /// [`Geometry::world_vertices`] (swapped for a mirroring instance).
     #[inline]
@@ -94,6 +112,20 @@ impl Geometry {
             _ => (u, v),
         }
     }
+}
+
+/// A hint to load the cache line holding `value` (nothing on targets without one).
+#[inline(always)]
+fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is only a hint: it never faults, reads nothing into the program and
+    // writes nothing; the pointer comes from a live reference anyway.
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
 }
 
 /// Pads `mesh` for Embree (a copy) unless it already is.

@@ -8,7 +8,7 @@ use crate::embree::{self, Hit, Ray};
 use crate::geometry::differential::{GlassInterface, RayDifferential};
 use crate::geometry::sampling::{sample_cosine, tangent_frame};
 use crate::geometry::surface::{continuation, surface_frame, transfer_to};
-use crate::photons::emission::Emission;
+use crate::photons::emission::{round_beam, Emission, Launch};
 use crate::photons::targets::DiffuseAim;
 use crate::scene::{Material, Scene};
 use crate::util::rng::Rng;
@@ -68,6 +68,9 @@ pub struct PathState {
     tnear: f64,
     /// Surfaces met so far.
     bounces: u32,
+    /// A round beam the emission left to spell out ([`Launch`]): `ray.dd` is set from it at
+    /// the first hit, before anything reads it.
+    spread: Option<f64>,
 }
 
 impl PathState {
@@ -81,13 +84,14 @@ impl PathState {
             path_length: 0.0,
             tnear: 0.0,
             bounces: 0,
+            spread: None,
         }
     }
 
-    /// Starts the path of `emission` in place (field by field: a lane's state is rewritten at
+    /// Starts the path of `launch` in place (field by field: a lane's state is rewritten at
     /// every emission, and a whole-struct move goes through `memcpy`).
     #[inline]
-    pub fn start(&mut self, emission: &Emission) {
+    pub fn start(&mut self, launch: &Launch) {
         // Every field named, so that a field added to the state cannot be left stale here
         // (`new` builds the same state as a literal).
         let PathState {
@@ -98,10 +102,12 @@ impl PathState {
             path_length,
             tnear,
             bounces,
+            spread,
         } = self;
-        let e = &emission.ray;
+        let e = &launch.emission.ray;
         (ray.p, ray.d, ray.dp, ray.dd) = (e.p, e.d, e.dp, e.dd);
-        *power = emission.power;
+        *power = launch.emission.power;
+        *spread = launch.spread;
         (*specular, *diffuse, *bounces) = (0, 0, 0);
         (*path_length, *tnear) = (0.0, 0.0);
     }
@@ -109,6 +115,20 @@ impl PathState {
     /// The next ray to trace.
     pub fn query(&self) -> Ray {
         continuation(&self.ray, self.tnear)
+    }
+
+    /// Writes [`PathState::query`] into `out` field by field: a query built whole is
+    /// assembled on the stack and copied from there, a copy that waits for those stores.
+    #[inline]
+    fn write_query(&self, out: &mut Ray) {
+        let Ray {
+            origin,
+            direction,
+            tnear,
+            tfar,
+        } = out;
+        let q = self.query();
+        (*origin, *direction, *tnear, *tfar) = (q.origin, q.direction, q.tnear, q.tfar);
     }
 }
 
@@ -176,7 +196,8 @@ impl LightPaths<'_> {
         let mut active = [0usize; WIDTH];
         let mut hits: [Option<Hit>; WIDTH] = [None; WIDTH];
         loop {
-            let mut n = 0;
+            // Lanes are refilled first and their queries gathered after: a query read back
+            // right after its lane's emission was written waits for those stores to land.
             for k in 0..WIDTH {
                 if tags[k].is_none() && !exhausted {
                     match next(&mut states[k], &mut rngs[k]) {
@@ -187,9 +208,12 @@ impl LightPaths<'_> {
                         None => exhausted = true,
                     }
                 }
+            }
+            let mut n = 0;
+            for k in 0..WIDTH {
                 if tags[k].is_some() {
                     if states[k].bounces < self.max_bounces {
-                        queries[n] = states[k].query();
+                        states[k].write_query(&mut queries[n]);
                         active[n] = k;
                         n += 1;
                     } else {
@@ -232,6 +256,9 @@ impl LightPaths<'_> {
         let Some(hit) = hit else {
             return false;
         };
+        if let Some(spread) = state.spread.take() {
+            state.ray.dd = round_beam(state.ray.d, spread);
+        }
         let ray = &state.ray;
         let at = transfer_to(ray, hit);
         state.path_length += (hit.position - ray.p).length();

@@ -267,9 +267,9 @@ impl<'a> PhotonTracer<'a> {
             .walk(emission, rng, |v| store(class, v, |p| out.push(p)))
     }
 
-    /// Traces emissions `range` of `emitter` in 16-wide packets: the photons of class `class`
-    /// in emission order, each with its emission's index, and the rays of every emission.
-    /// The same photons as [`PhotonTracer::trace`] on each emission in turn.
+    /// Traces emissions `range` of `emitter` in 16-wide packets: the photons of class `class`,
+    /// each with its emission's index, their order by emission, and the rays of every
+    /// emission. The same photons as [`PhotonTracer::trace`] on each emission in turn.
     fn trace_range(
         &self,
         emitter: &Emitter,
@@ -283,8 +283,7 @@ impl<'a> PhotonTracer<'a> {
             |state, rng| {
                 for index in indices.by_ref() {
                     *rng = self.stream(class, index);
-                    if let Some(e) = emitter.emit(index, rng) {
-                        state.start(&e);
+                    if emitter.launch(index, rng, |l| state.start(l)).is_some() {
                         return Some(index);
                     }
                 }
@@ -293,17 +292,22 @@ impl<'a> PhotonTracer<'a> {
             |&index, v| store(class, v, |p| photons.push((index, p))),
             |index, n| rays[(index - range.start) as usize] = n as u32,
         );
-        // A lane's photons come in path order; lanes finish out of order. Sorted by key and
-        // then gathered, each photon moved once (a sort of the photons themselves moves each
-        // a few hundred bytes at a time, several times).
-        let mut order: Vec<(u64, u32)> = photons
+        // A lane's photons come in path order; lanes finish out of order. Sorted by key, and
+        // gathered in that order only where they are taken (a sort of the photons themselves
+        // moves each a few hundred bytes at a time, several times, and gathering them here
+        // would copy each once more).
+        let mut keys: Vec<(u64, u32)> = photons
             .iter()
             .enumerate()
             .map(|(k, &(index, _))| (index, k as u32))
             .collect();
-        order.sort_unstable();
-        let photons = order.iter().map(|&(_, k)| photons[k as usize]).collect();
-        (photons, rays)
+        keys.sort_unstable();
+        let order = keys.into_iter().map(|(_, k)| k).collect();
+        RangePhotons {
+            photons,
+            order,
+            rays,
+        }
     }
 
     /// Traces emissions from `emitter` in index order until `stop` is met: the photons of
@@ -342,15 +346,20 @@ impl<'a> PhotonTracer<'a> {
                 let mut index = start;
                 let stored_before = traced.len();
                 let complete = 'batch: {
-                    for (photons, rays) in batch {
+                    for range in batch {
                         // By position, not a peekable iterator: peeking moves a whole photon
                         // in and out of the iterator at every emission (most store none).
+                        let (photons, order) = (&range.photons, &range.order);
                         let mut next = 0;
-                        for n in rays {
+                        for n in range.rays {
                             counts.emitted += 1;
                             counts.rays += u64::from(n);
-                            while next < photons.len() && photons[next].0 == index {
-                                traced.push(photons[next].1);
+                            while let Some(&k) = order.get(next) {
+                                let (i, photon) = &photons[k as usize];
+                                if *i != index {
+                                    break;
+                                }
+                                traced.push(*photon);
                                 next += 1;
                             }
                             index += 1;
@@ -517,9 +526,15 @@ fn store(class: PathClass, v: &DiffuseHit, keep: impl FnOnce(TracedPhoton)) -> b
     matches!(class, PathClass::Global | PathClass::AllDiffuse)
 }
 
-/// What [`PhotonTracer::trace_range`] returns: the photons with their emissions' indices, in
-/// index order, and every emission's rays.
-type RangePhotons = (Vec<(u64, TracedPhoton)>, Vec<u32>);
+/// What [`PhotonTracer::trace_range`] returns.
+struct RangePhotons {
+    /// The photons with their emissions' indices, in the order the lanes stored them.
+    photons: Vec<(u64, TracedPhoton)>,
+    /// Positions in `photons` in emission order (a photon's path order within its emission).
+    order: Vec<u32>,
+    /// Every emission's rays.
+    rays: Vec<u32>,
+}
 
 /// Mixed into the seed of every emission's random stream: each map class has its own.
 fn salt(class: PathClass) -> u64 {
