@@ -92,16 +92,19 @@ pub fn classify_parallelograms(p: &Placements) -> ParallelogramLanes {
     let area = cross.abs();
     let mut general = area.simd_lt(Wide::splat(PI)) & left;
     left &= !general;
-    // The disc inside, or a side's line between them: from the sides' signed distances.
-    let (la, lb) = (length2(a0, a1).sqrt(), length2(b0, b1).sqrt());
-    let ca = (s0 * a1 - s1 * a0) / la;
-    let cb = (s0 * b1 - s1 * b0) / lb;
-    let half_area = Wide::splat(0.5) * area;
-    let (ma, mb) = (half_area / la - ca.abs(), half_area / lb - cb.abs());
-    let holds = ma.simd_ge(Wide::ONE) & mb.simd_ge(Wide::ONE);
-    settle(holds, Wide::splat(FRAC_PI_2) / area, &mut left);
-    let separated = ma.simd_le(-Wide::ONE) | mb.simd_le(-Wide::ONE);
-    settle(separated, Wide::ZERO, &mut left);
+    // The disc inside, or a side's line between them: from the sides' signed distances (two
+    // square roots and six divisions, where a lane is still left: few are).
+    if left.any() {
+        let (la, lb) = (length2(a0, a1).sqrt(), length2(b0, b1).sqrt());
+        let ca = (s0 * a1 - s1 * a0) / la;
+        let cb = (s0 * b1 - s1 * b0) / lb;
+        let half_area = Wide::splat(0.5) * area;
+        let (ma, mb) = (half_area / la - ca.abs(), half_area / lb - cb.abs());
+        let holds = ma.simd_ge(Wide::ONE) & mb.simd_ge(Wide::ONE);
+        settle(holds, Wide::splat(FRAC_PI_2) / area, &mut left);
+        let separated = ma.simd_le(-Wide::ONE) | mb.simd_le(-Wide::ONE);
+        settle(separated, Wide::ZERO, &mut left);
+    }
     general |= left;
     ParallelogramLanes {
         general: general.to_bitmask(),
