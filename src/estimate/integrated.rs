@@ -157,26 +157,15 @@ impl IntegratedEstimate<'_> {
         // in SIMD lanes ([`general_lanes`]), and only the others go through the scalar
         // classification (in the order found either way, so the sums are a lone gather's).
         for chunk in found.chunks(LANES) {
-            // Padding: far from the disc.
-            let (mut s, mut a, mut b) = (
-                [DVec2::new(1e6, 0.0); LANES],
-                [DVec2::X; LANES],
-                [DVec2::Y; LANES],
-            );
-            for (k, &OnSurface(i)) in chunk.iter().enumerate() {
-                // From the cover test's table, which the test has just read for this photon.
-                let (position, [m0, m1]) = self.map.filter_frame(i as usize);
-                // In double precision from the query's own (not f32-rounded) point and
-                // footprint: the filter map scales a pixel by its size over the photon's, so
-                // a photon far smaller than the pixel (a focus) would see f32's rounding of
-                // them magnified; so it is placed to within its stored position's rounding,
-                // and footprints sharing a corner split it exactly.
-                let (m0, m1) = (m0.as_dvec3(), m1.as_dvec3());
-                let filter = |w: DVec3| DVec2::new(m0.dot(w), m1.dot(w));
-                s[k] = filter(q.position - position.as_dvec3());
-                (a[k], b[k]) = (filter(f[0]), filter(f[1]));
-            }
-            let lanes = Placements::new(&s, &a, &b);
+            let lanes = self.placements(q.position, &f, chunk);
+            // Each lane's numbers for the scalar steps (lanes past the chunk are padding,
+            // never read).
+            let columns = |c: [Wide; 2]| c.map(Wide::to_array);
+            let (sc, ac, bc) = (columns(lanes.s), columns(lanes.a), columns(lanes.b));
+            let at = |c: &[[f64; LANES]; 2], k: usize| DVec2::new(c[0][k], c[1][k]);
+            let s: [DVec2; LANES] = std::array::from_fn(|k| at(&sc, k));
+            let a: [DVec2; LANES] = std::array::from_fn(|k| at(&ac, k));
+            let b: [DVec2; LANES] = std::array::from_fn(|k| at(&bc, k));
             match exact {
                 Some(e) => {
                     let general = e.frame.general_lanes(&lanes);
@@ -212,6 +201,43 @@ impl IntegratedEstimate<'_> {
             }
         }
         total
+    }
+
+    /// The view footprint `x +- f[0]/2 +- f[1]/2` in the filter spaces of the photons in
+    /// `chunk` (at most [`LANES`]), a lane each: `s = M (x - x_p)`, `a = M f[0]`, `b = M f[1]`.
+    ///
+    /// In double precision from the query's own (not f32-rounded) point and footprint: the
+    /// filter map scales a pixel by its size over the photon's, so a photon far smaller than
+    /// the pixel (a focus) would see f32's rounding of them magnified; so it is placed to
+    /// within its stored position's rounding, and footprints sharing a corner split it
+    /// exactly. Each photon's position and filter rows come from the cover test's table,
+    /// which the test has just read for it; the products are `glam`'s `dot`, in its order.
+    #[inline(always)]
+    fn placements(&self, x: DVec3, f: &[DVec3; 2], chunk: &[OnSurface]) -> Placements {
+        // Position, then the filter rows: nine columns.
+        let mut columns = [[0.0; LANES]; 9];
+        for (k, &OnSurface(i)) in chunk.iter().enumerate() {
+            let (position, [m0, m1]) = self.map.filter_frame(i as usize);
+            for (c, v) in [position, m0, m1]
+                .iter()
+                .flat_map(|v| v.to_array())
+                .enumerate()
+            {
+                columns[c][k] = f64::from(v);
+            }
+        }
+        let [px, py, pz, m00, m01, m02, m10, m11, m12] = columns.map(Wide::from);
+        let dot = |m: [Wide; 3], v: [Wide; 3]| m[0] * v[0] + m[1] * v[1] + m[2] * v[2];
+        let splat = |v: DVec3| v.to_array().map(Wide::splat);
+        let (m0, m1) = ([m00, m01, m02], [m10, m11, m12]);
+        let [xx, xy, xz] = splat(x);
+        let v = [xx - px, xy - py, xz - pz];
+        let filter = |w: [Wide; 3]| [dot(m0, w), dot(m1, w)];
+        Placements {
+            s: filter(v),
+            a: filter(splat(f[0])),
+            b: filter(splat(f[1])),
+        }
     }
 
     /// What the scalar classification settles for a photon (slot `i`) placed at `(s, a, b)`
