@@ -6,11 +6,14 @@
 //! time at 20k (same settings, one pass); the build of 1.28M photons well under 0.5 s.
 //!
 //! Run: `cargo bench --bench photon_queries` (env PHOTONDIFF_QUERIES_MAX_PHOTONS caps the sweep;
-//! PHOTONDIFF_REPEATS, default 3, renders per estimator and count, the estimators alternated,
-//! the median reported: one render of each was too noisy to compare runs by).
+//! PHOTONDIFF_REPEATS, default 3, renders per estimator and count, every count's and
+//! estimator's render made in turn within each repetition, the median reported, and the ratio
+//! to 20k within each repetition: one render of each was too noisy to compare runs by, and
+//! counts rendered one after the other put minutes of the machine's changing load between a
+//! ratio's two sides).
 
 mod common;
-use common::{env_or, median, render_in_process};
+use common::{env_or, median, ratio_spread, render_in_process};
 
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::map::PhotonMap;
@@ -40,58 +43,73 @@ fn main() {
         ("integrated", EstimatorKind::Integrated),
         ("coplanar", EstimatorKind::Coplanar),
     ];
-    println!("## Photon queries against caustic photons (canonical scene, one pass, 2 threads)\n");
-    println!("| caustic photons | map build s | estimator | render s | x 20k | found / used per gather | found / used |");
-    println!("|---|---|---|---|---|---|---|");
-    let mut first: Vec<f64> = Vec::new();
-    for count in [20_000usize, 80_000, 320_000, 1_280_000] {
-        if count as f64 > max * 1.05 {
-            break;
-        }
-        let options = PhotonOptions {
-            caustic_photons: count,
-            ..PhotonOptions::default()
-        };
-        let mut stats = Stats::default();
-        let maps = trace_photon_maps(&scene, &embree, &options, 0, false, &mut stats).unwrap();
-        // The caustic map's build alone, from the same photons (best of three).
-        let c = &maps.caustic;
-        let build = (0..3)
-            .map(|_| {
-                let photons = c.photons.clone();
-                let start = Instant::now();
-                let map = PhotonMap::new(c.class, photons, c.emitted, c.guards);
-                let t = start.elapsed().as_secs_f64();
-                drop(map);
-                t
-            })
-            .fold(f64::INFINITY, f64::min);
-        let estimators: Vec<_> = kinds
-            .iter()
-            .map(|(_, kind)| {
-                let settings = EstimatorSettings::new(*kind, options.limits(&scene).max_radius);
-                maps.estimators(&settings)
-            })
-            .collect();
-        let mut times = vec![Vec::new(); kinds.len()];
-        let mut gathers = vec![Default::default(); kinds.len()];
-        for _ in 0..repeats {
+    let counts: Vec<usize> = [20_000usize, 80_000, 320_000, 1_280_000]
+        .into_iter()
+        .filter(|&count| count as f64 <= max * 1.05)
+        .collect();
+    // Every count's maps first, then each repetition renders every count and estimator in
+    // turn: a ratio to 20k compares renders made minutes apart otherwise, and the shared
+    // machine's load moved it by 10% between runs.
+    let mut builds = Vec::new();
+    let maps: Vec<_> = counts
+        .iter()
+        .map(|&count| {
+            let options = PhotonOptions {
+                caustic_photons: count,
+                ..PhotonOptions::default()
+            };
+            let mut stats = Stats::default();
+            let maps = trace_photon_maps(&scene, &embree, &options, 0, false, &mut stats).unwrap();
+            // The caustic map's build alone, from the same photons (best of three).
+            let c = &maps.caustic;
+            let build = (0..3)
+                .map(|_| {
+                    let photons = c.photons.clone();
+                    let start = Instant::now();
+                    let map = PhotonMap::new(c.class, photons, c.emitted, c.guards);
+                    let t = start.elapsed().as_secs_f64();
+                    drop(map);
+                    t
+                })
+                .fold(f64::INFINITY, f64::min);
+            builds.push(build);
+            (maps, options.limits(&scene).max_radius)
+        })
+        .collect();
+    let estimators: Vec<Vec<_>> = maps
+        .iter()
+        .map(|(maps, max_radius)| {
+            kinds
+                .iter()
+                .map(|(_, kind)| maps.estimators(&EstimatorSettings::new(*kind, *max_radius)))
+                .collect()
+        })
+        .collect();
+    // times[count][estimator][repetition]
+    let mut times = vec![vec![Vec::new(); kinds.len()]; counts.len()];
+    let mut gathers = vec![vec![Default::default(); kinds.len()]; counts.len()];
+    for _ in 0..repeats {
+        for (c, estimators) in estimators.iter().enumerate() {
             for (k, estimators) in estimators.iter().enumerate() {
                 let render_stats = render_in_process(&scene, &embree, estimators);
-                times[k].push(render_stats.seconds("render"));
-                gathers[k] = render_stats.gathers;
+                times[c][k].push(render_stats.seconds("render"));
+                gathers[c][k] = render_stats.gathers;
             }
         }
+    }
+    println!("## Photon queries against caustic photons (canonical scene, one pass, 2 threads)\n");
+    println!("| caustic photons | map build s | estimator | render s | x 20k | x 20k within repetitions: lowest / median / highest | found / used per gather | found / used |");
+    println!("|---|---|---|---|---|---|---|---|");
+    for (c, count) in counts.iter().enumerate() {
         for (k, (name, _)) in kinds.iter().enumerate() {
-            let render = median(times[k].clone());
-            if first.len() <= k {
-                first.push(render);
-            }
-            let g = &gathers[k];
+            let render = median(times[c][k].clone());
+            let (lowest, middle, highest) = ratio_spread(&times[c][k], &times[0][k]);
+            let g = &gathers[c][k];
             let per = |n: u64| n as f64 / g.gathers.max(1) as f64;
             println!(
-                "| {count} | {build:.3} | {name} | {render:.3} | {:.2} | {:.1} / {:.1} | {:.2} |",
-                render / first[k],
+                "| {count} | {:.3} | {name} | {render:.3} | {:.2} | {lowest:.2} / {middle:.2} / {highest:.2} | {:.1} / {:.1} | {:.2} |",
+                builds[c],
+                render / median(times[0][k].clone()),
                 per(g.photons_found),
                 per(g.photons_used),
                 g.photons_found as f64 / g.photons_used.max(1) as f64
