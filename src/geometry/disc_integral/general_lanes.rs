@@ -25,18 +25,6 @@ pub struct Placements {
     pub b: [Wide; 2],
 }
 
-impl Placements {
-    /// From `s`, `a`, `b` of each lane.
-    pub fn new(s: &[DVec2; LANES], a: &[DVec2; LANES], b: &[DVec2; LANES]) -> Self {
-        let column = |v: &[DVec2; LANES], c: usize| Wide::from(v.map(|p| p[c]));
-        Placements {
-            s: [column(s, 0), column(s, 1)],
-            a: [column(a, 0), column(a, 1)],
-            b: [column(b, 0), column(b, 1)],
-        }
-    }
-}
-
 /// What [`super::classify`] answers for a chunk's parallelograms, lane by lane.
 #[derive(Debug, Clone, Copy)]
 pub struct ParallelogramLanes {
@@ -220,11 +208,16 @@ mod tests {
         out
     }
 
+    /// A chunk's placements in lanes (padded with far ones).
     fn lanes(chunk: &[(DVec2, DVec2, DVec2)]) -> Placements {
-        let pick = |f: fn(&(DVec2, DVec2, DVec2)) -> DVec2| {
-            std::array::from_fn(|k| chunk.get(k).map_or(DVec2::splat(1e6), f))
+        let column = |f: fn(&(DVec2, DVec2, DVec2)) -> f64| {
+            Wide::from(std::array::from_fn(|k| chunk.get(k).map_or(1e6, f)))
         };
-        Placements::new(&pick(|p| p.0), &pick(|p| p.1), &pick(|p| p.2))
+        Placements {
+            s: [column(|p| p.0.x), column(|p| p.0.y)],
+            a: [column(|p| p.1.x), column(|p| p.1.y)],
+            b: [column(|p| p.2.x), column(|p| p.2.y)],
+        }
     }
 
     #[test]
