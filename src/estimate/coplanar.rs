@@ -145,9 +145,9 @@ impl RadianceEstimator for CoplanarEstimate<'_> {
             } = &mut *scratch.borrow_mut();
             let vertices = self.ellipse_vertices.max(3);
             if unit.as_ref().map(|u| u.vertices().len()) != Some(vertices) {
-                *unit = Some(UnitPolygon::new(vertices));
+                *unit = None;
             }
-            let unit = unit.as_ref().expect("just set");
+            let unit = unit.get_or_insert_with(|| UnitPolygon::new(vertices));
             // Only photons whose kernel may reach the view footprint (the exact disc against
             // parallelogram screen of the footprint estimators): the cube of the footprint's
             // reach let through four times as many, each clipped as a polygon for nothing.
