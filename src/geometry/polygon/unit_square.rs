@@ -135,20 +135,22 @@ impl UnitPolygon {
         if lo.x > 0.5 || lo.y > 0.5 || hi.x < -0.5 || hi.y < -0.5 {
             return (0.0, DVec2::ZERO);
         }
-        // A corner w (about the centre) has preimage (w x b, a x w) / det.
+        let crossed = [hi.x > 0.5, lo.x < -0.5, hi.y > 0.5, lo.y < -0.5];
+        // Only an ellipse whose box crosses all four sides can hold the square. A corner w
+        // (about the centre) has preimage (w x b, a x w) / det.
         let holds = |w: DVec2| {
             let (x, y) = (w.perp_dot(b), a.perp_dot(w));
             x * x + y * y <= self.inradius2 * det * det
         };
         let corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)];
-        if corners
-            .iter()
-            .all(|&(x, y)| holds(DVec2::new(x, y) - centre))
+        if crossed.iter().all(|&c| c)
+            && corners
+                .iter()
+                .all(|&(x, y)| holds(DVec2::new(x, y) - centre))
         {
             return (1.0, DVec2::ZERO);
         }
         super::ellipse_into(centre, a, b, &self.vertices, polygon);
-        let crossed = [hi.x > 0.5, lo.x < -0.5, hi.y > 0.5, lo.y < -0.5];
         clip_by_sides(polygon, crossed, scratch)
     }
 }
