@@ -1,9 +1,12 @@
 //! Convex polygons against the square `[-1/2, 1/2]^2`, where the coplanar estimate maps each
-//! view footprint, and the ellipse polygons it clips there settled without a polygon where
-//! they lie inside the square or hold it whole.
+//! view footprint, and the ellipse polygons it clips there settled without building them: in
+//! closed form where they lie inside the square or hold it whole, from the pieces of the two
+//! boundaries ([`boundary`]) where they cross it.
 
 use super::{area_centroid, unit_circle, ClipScratch};
 use glam::DVec2;
+
+mod boundary;
 
 /// Area and centroid of the part of the convex polygon `subject` (vertices in order, either
 /// orientation) inside the square `[-1/2, 1/2]^2`: [`super::intersect_convex`] with that
@@ -83,6 +86,9 @@ pub struct UnitPolygon {
     /// The square of its inradius, `cos(pi/n)^2`: the image of the disc of this radius lies
     /// inside the image of the polygon.
     inradius2: f64,
+    /// Its edges, from which an image crossing the square's sides is clipped without building
+    /// it.
+    edges: boundary::Edges,
 }
 
 impl UnitPolygon {
@@ -92,9 +98,10 @@ impl UnitPolygon {
         let n = vertices.len() as f64;
         let angle = std::f64::consts::TAU / n;
         UnitPolygon {
-            vertices,
             area: 0.5 * n * angle.sin(),
             inradius2: (0.5 * angle).cos().powi(2),
+            edges: boundary::Edges::new(&vertices),
+            vertices,
         }
     }
 
@@ -107,9 +114,11 @@ impl UnitPolygon {
     /// `[-1/2, 1/2]^2`: what [`clip_to_unit_square`] gives for the image's polygon, without
     /// building it where the ellipse's bounding box lies inside the square (the whole image, of
     /// known area, centred on `centre`: an affine map keeps centroids) or the square's corners
-    /// lie inside the image of the inscribed disc (the whole square). These differ from the
-    /// clipped polygon's numbers by rounding only. `polygon` receives the image where it is
-    /// built.
+    /// lie inside the image of the inscribed disc (the whole square), nor where it crosses the
+    /// square's sides (its edges and the sides cut to each other in SIMD lanes,
+    /// [`boundary::Edges::clip`]). These differ from the clipped polygon's numbers by rounding
+    /// only. `polygon` receives the image where it is built (a polygon of more than 64
+    /// vertices, or rounding that leaves a side cutting two runs of vertices).
     pub fn in_unit_square(
         &self,
         centre: DVec2,
@@ -149,6 +158,9 @@ impl UnitPolygon {
                 .all(|&(x, y)| holds(DVec2::new(x, y) - centre))
         {
             return (1.0, DVec2::ZERO);
+        }
+        if let Some(clipped) = self.edges.clip(centre, a, b, det, crossed) {
+            return clipped;
         }
         super::ellipse_into(centre, a, b, &self.vertices, polygon);
         clip_by_sides(polygon, crossed, scratch)
@@ -208,10 +220,10 @@ mod tests {
     fn an_ellipse_polygon_in_the_square_is_its_clipped_polygon() {
         let mut scratch = ClipScratch::default();
         let mut polygon = Vec::new();
-        for n in [3, 5, 16, 33] {
+        for n in [3, 5, 16, 33, 65] {
             let unit = UnitPolygon::new(n);
-            // How many were settled by each closed form, and how many clipped.
-            let (mut inside, mut holding, mut clipped) = (0, 0, 0);
+            // How many were settled by each closed form, by the boundary pieces, and clipped.
+            let (mut inside, mut holding, mut crossing, mut clipped) = (0, 0, 0, 0);
             let cases = ellipses()
                 .map(|(c, a, b)| (c * 0.4, a, b))
                 .chain(ellipses().map(|(c, a, b)| (c * 0.3, a * 3.0, b * 3.0)))
@@ -227,16 +239,30 @@ mod tests {
                 if expected.0 > 1e-9 {
                     assert!((got.1 - expected.1).length() <= 1e-9, "{n}-gon {k}");
                 }
-                match (polygon.is_empty(), got.0 == 1.0) {
-                    (false, _) => clipped += 1,
-                    (true, true) => holding += 1,
-                    (true, false) => inside += 1,
+                let whole = (got.0 - unit.area * a.perp_dot(b).abs()).abs() <= 1e-12;
+                if !polygon.is_empty() {
+                    clipped += 1;
+                } else if got.0 == 1.0 {
+                    holding += 1;
+                } else if whole && got.1 == centre {
+                    inside += 1;
+                } else if got.0 > 0.0 {
+                    crossing += 1;
                 }
             }
             assert!(
-                inside > 100 && holding > 100 && clipped > 100,
-                "{n}-gon: {inside} inside, {holding} holding the square, {clipped} clipped"
+                inside > 100 && holding > 100,
+                "{n}-gon: {inside} inside, {holding} holding the square"
             );
+            // Past 64 vertices the boundary pieces give way to clipping the polygon.
+            if n > 64 {
+                assert!(clipped > 100 && crossing == 0, "{n}-gon: {clipped} clipped");
+            } else {
+                assert!(
+                    crossing > 100 && clipped == 0,
+                    "{n}-gon: {crossing} {clipped}"
+                );
+            }
         }
         // A degenerate ellipse (a point, a segment) is clipped as its polygon is: no area.
         let unit = UnitPolygon::new(16);
