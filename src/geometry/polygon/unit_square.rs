@@ -116,7 +116,7 @@ impl UnitPolygon {
     /// known area, centred on `centre`: an affine map keeps centroids) or the square's corners
     /// lie inside the image of the inscribed disc (the whole square), nor where it crosses the
     /// square's sides (its edges and the sides cut to each other in SIMD lanes,
-    /// [`boundary::Edges::clip`]). These differ from the clipped polygon's numbers by rounding
+    /// `boundary::Edges::clip`). These differ from the clipped polygon's numbers by rounding
     /// only. `polygon` receives the image where it is built (a polygon of more than 64
     /// vertices, or rounding that leaves a side cutting two runs of vertices).
     pub fn in_unit_square(
