@@ -4,15 +4,14 @@
 //! the intersection's centroid, is weighted by the intersection's coverage of the view footprint:
 //! `sum f_r Phi_p / A_p K(|M_p (c - x_p)|) w`.
 
-use crate::estimate::{
-    batch_of_one, footprint_circumradius, on_query_surface, photon_kernel, GatherCounts,
-    GatherQuery, RadianceEstimator,
-};
+use crate::estimate::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::polygon::{area_centroid, intersect_convex, ClipScratch, UnitPolygon};
 use crate::geometry::sampling::tangent_frame;
+use crate::photons::cover::OnSurface;
 use crate::photons::map::{FootprintQuery, PacketSearch, PhotonMap};
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
+use std::f32::consts::FRAC_2_PI;
 use std::f64::consts::FRAC_1_PI;
 
 /// The coplanar intersection-weighted estimate.
@@ -38,7 +37,7 @@ pub fn coverage(photon: &[DVec2], view: &[DVec2]) -> (f64, DVec2) {
 #[derive(Default)]
 struct Scratch {
     /// A packet's footprints and the photons found for each.
-    search: PacketSearch<u32>,
+    search: PacketSearch<OnSurface>,
     unit: Option<UnitPolygon>,
     polygon: Vec<DVec2>,
     clip: ClipScratch,
@@ -54,7 +53,7 @@ impl CoplanarEstimate<'_> {
     fn gather(
         &self,
         q: &GatherQuery,
-        found: &[u32],
+        found: &[OnSurface],
         unit: &UnitPolygon,
         polygon: &mut Vec<DVec2>,
         clip: &mut ClipScratch,
@@ -62,8 +61,6 @@ impl CoplanarEstimate<'_> {
     ) -> DVec3 {
         counts.gathers += 1;
         counts.photons_found += found.len() as u64;
-        let reach = footprint_circumradius(&q.footprint);
-        let reach = if reach.is_finite() { reach } else { 0.0 };
         let (t1, t2) = tangent_frame(q.normal);
         let to_2d = |v: DVec3| DVec2::new(v.dot(t1), v.dot(t2));
         let (u, v) = (to_2d(q.footprint[0]), to_2d(q.footprint[1]));
@@ -73,41 +70,47 @@ impl CoplanarEstimate<'_> {
         // footprint's polygon is the definition it is tested against).
         let det = u.perp_dot(v);
         let view_area = det.abs();
-        let to_square = |p: DVec2| DVec2::new(p.perp_dot(v), u.perp_dot(p)) / det;
+        // (By the reciprocal: three divisions a photon were a tenth of its gather.)
+        let inv_det = 1.0 / det;
+        let to_square = |p: DVec2| DVec2::new(p.perp_dot(v), u.perp_dot(p)) * inv_det;
         let x = q.position.as_vec3();
-        let n = q.normal.as_vec3();
         let mut sum = Vec3::ZERO;
-        for &i in found {
-            let p = &self.map.photons[i as usize];
-            if !on_query_surface(p, x - p.position, n) {
-                continue;
-            }
-            let contribution = if view_area > 0.0 && view_area.is_finite() {
-                let centre = to_2d(p.position.as_dvec3() - q.position);
-                // Bounding circles apart: no intersection, no polygon work.
-                if centre.length() > p.radius as f64 + reach {
-                    continue;
+        // Found on the query's surface (the cover test made `on_query_surface`'s test at `x`);
+        // everything else read of a photon comes from the cover test's table and the flux
+        // table, not the 80-byte photon, which is in main memory for a large map.
+        for &OnSurface(i) in found {
+            let i = i as usize;
+            let (position, m) = self.map.filter_frame(i);
+            // `photon_kernel` at offset `v` from the photon, from those tables: the slab test
+            // (the normal's was made at `x` and does not depend on the point) and the kernel.
+            let kernel = |v: Vec3| {
+                let (normal, slab) = self.map.surface(i);
+                if normal.dot(v).abs() > slab {
+                    return None;
                 }
-                // The footprint's semi-axis vectors: M's rows are axis / sigma.
-                let axis = |m: Vec3| to_square(to_2d((m / m.length_squared()).as_dvec3()));
-                let (w, c) = unit.in_unit_square(
-                    to_square(centre),
-                    axis(p.m[0]),
-                    axis(p.m[1]),
-                    polygon,
-                    clip,
-                );
+                let (s0, s1) = (m[0].dot(v), m[1].dot(v));
+                let r2 = s0 * s0 + s1 * s1;
+                let p = &self.map.flux[i];
+                (r2 < 1.0).then(|| p.power * (p.inv_area * FRAC_2_PI * (1.0 - r2)))
+            };
+            let contribution = if view_area > 0.0 && view_area.is_finite() {
+                let centre = to_2d(position.as_dvec3() - q.position);
+                // The footprint's semi-axis vectors: M's rows are axis / sigma. (The cover test
+                // found only ellipses that meet the footprint's parallelogram, up to its slack.)
+                let axis = |m: Vec3| to_square(to_2d((m * m.length_squared().recip()).as_dvec3()));
+                let (w, c) =
+                    unit.in_unit_square(to_square(centre), axis(m[0]), axis(m[1]), polygon, clip);
                 let w = w.clamp(0.0, 1.0);
                 if w <= 0.0 {
                     continue;
                 }
                 let c = u * c.x + v * c.y;
                 let c = q.position + t1 * c.x + t2 * c.y;
-                photon_kernel(p, c.as_vec3() - p.position, n).map(|k| k * w as f32)
+                kernel(c.as_vec3() - position).map(|k| k * w as f32)
             } else {
                 // A degenerate view footprint is a point: the plain photon-differential
                 // estimate.
-                photon_kernel(p, x - p.position, n)
+                kernel(x - position)
             };
             if let Some(c) = contribution {
                 counts.photons_used += 1;

@@ -174,6 +174,17 @@ impl CoverTable {
         (at(&self.position), [at(&self.m[0]), at(&self.m[1])])
     }
 
+    /// Normal of the photon in `slot` and half-thickness of its surface slab, as
+    /// [`crate::estimate::on_query_surface`] computes them from the photon (the same `f32`s).
+    #[inline(always)]
+    pub fn surface(&self, slot: usize) -> (Vec3, f32) {
+        let n = &self.normal;
+        (
+            Vec3::new(n[0][slot], n[1][slot], n[2][slot]),
+            self.slab[slot],
+        )
+    }
+
     /// The lanes of the leaf `first..first + count` (`count <= 16`).
     #[inline(always)]
     fn load(&self, first: usize, count: usize) -> LeafLanes {

@@ -197,6 +197,14 @@ impl PhotonMap {
         self.cover.filter_frame(i)
     }
 
+    /// Normal of photon `i` and half-thickness of its surface slab
+    /// (`OFF_PLANE_TOLERANCE * radius`), read from the cover test's table
+    /// ([`CoverTable::surface`]).
+    #[inline(always)]
+    pub fn surface(&self, i: usize) -> (Vec3, f32) {
+        self.cover.surface(i)
+    }
+
     /// [`PhotonMap::covering`] for each of `queries`, into `outs[j]` for query `j` (`outs`
     /// grown to hold them), each the very list `covering` gives. The queries go through the
     /// BVH sixteen at a time in one walk (neighbouring pixels' gathers visit nearly the same
