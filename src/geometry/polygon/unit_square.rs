@@ -270,5 +270,24 @@ mod tests {
             let got = unit.in_unit_square(DVec2::splat(0.1), a, b, &mut polygon, &mut scratch);
             assert_eq!(got.0, 0.0, "{a} {b}");
         }
+        // Edge vectors near f64's range: the area the polygon's clipping gives, bit for bit,
+        // and its centroid where there is one.
+        for (a, b) in [
+            (DVec2::new(1e300, 1e300), DVec2::new(-1e-300, 1e-300)),
+            (DVec2::new(1e307, 0.0), DVec2::new(0.0, 1e-307)),
+            (DVec2::new(1e200, 1e-200), DVec2::new(-1e-200, 1e200)),
+        ] {
+            let centre = DVec2::new(0.3, -0.2);
+            let expected = clip_to_unit_square(&ellipse(centre, a, b, 16), &mut scratch);
+            let got = unit.in_unit_square(centre, a, b, &mut polygon, &mut scratch);
+            assert_eq!(
+                got.0.to_bits(),
+                expected.0.to_bits(),
+                "{a} {b}: {got:?} vs {expected:?}"
+            );
+            if got.0 > 0.0 {
+                assert_eq!(got.1, expected.1, "{a} {b}");
+            }
+        }
     }
 }

@@ -186,12 +186,20 @@ impl Edges {
                 m += cm;
             }
         }
+        // Numbers past overflow (edge vectors near f64's range) are left to the polygon's
+        // clipping, which answers them as it answers any polygon.
+        if !(a2.is_finite() && m.is_finite()) {
+            return None;
+        }
         // What rounding leaves of an empty intersection is no area.
-        if a2.is_nan() || a2 <= 1e-12 * self.twice_area {
+        if a2 <= 1e-12 * self.twice_area {
             return Some((0.0, DVec2::ZERO));
         }
         let c = m / (3.0 * a2);
-        Some((0.5 * a2 * det.abs(), centre + a * c.x + b * c.y))
+        let centroid = centre + a * c.x + b * c.y;
+        centroid
+            .is_finite()
+            .then_some((0.5 * a2 * det.abs(), centroid))
     }
 }
 
