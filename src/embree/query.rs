@@ -149,11 +149,27 @@ impl Scene {
     /// `hits[i]` answers `rays[i]`; invalid rays are answered `None` and counted.
     pub fn intersect16(&self, rays: &[Ray], coherent: bool, hits: &mut [Option<Hit>]) {
         assert!(rays.len() <= PACKET_WIDTH && hits.len() >= rays.len());
-        hits[..rays.len()].fill(None);
-        self.for_each_hit16(rays, coherent, |l, x| {
-            hits[l] = Some(complete_hit(
-                &rays[l], x.id, x.prim, x.u, x.v, x.tfar, x.vertices,
-            ));
+        self.intersect16_each(rays, coherent, |l, hit| hits[l] = hit.copied());
+    }
+
+    /// [`Scene::intersect16`] with each answer handed to `answer` in lane order (`None` for a
+    /// miss or an invalid ray) instead of stored: a hit is some 240 bytes, and one built on the
+    /// stack and copied into an array is read back whole before its stores have landed.
+    pub fn intersect16_each(
+        &self,
+        rays: &[Ray],
+        coherent: bool,
+        mut answer: impl FnMut(usize, Option<&Hit>),
+    ) {
+        assert!(rays.len() <= PACKET_WIDTH);
+        self.for_each_hit16(rays, coherent, |l, x| match x {
+            Some(x) => answer(
+                l,
+                Some(&complete_hit(
+                    &rays[l], x.id, x.prim, x.u, x.v, x.tfar, x.vertices,
+                )),
+            ),
+            None => answer(l, None),
         });
     }
 
@@ -164,20 +180,27 @@ impl Scene {
     /// derivatives): for probes that need only how far a ray got and what it met.
     pub fn hit_normals16(&self, rays: &[Ray], coherent: bool, out: &mut [Option<(f64, DVec3)>]) {
         assert!(rays.len() <= PACKET_WIDTH && out.len() >= rays.len());
-        out[..rays.len()].fill(None);
         self.for_each_hit16(rays, coherent, |l, x| {
-            let [p0, p1, p2] = x.vertices.0;
-            out[l] = Some((f64::from(x.tfar), (p1 - p0).cross(p2 - p0).normalize()));
+            out[l] = x.map(|x| {
+                let [p0, p1, p2] = x.vertices.0;
+                (f64::from(x.tfar), (p1 - p0).cross(p2 - p0).normalize())
+            });
         });
     }
 
-    /// Traces up to 16 rays as one packet and calls `visit` with each lane that hit and its
-    /// answer. The hit triangles' indices are read for every lane, then their vertices are
-    /// prefetched for every lane, before any is used: on a large mesh each read is a cache
-    /// miss, and one lane at a time they would wait in turn; so the lanes' misses overlap.
+    /// Traces up to 16 rays as one packet and calls `visit` with each lane in order and its
+    /// answer (`None` for a miss or an invalid ray). The hit triangles' indices are read for
+    /// every lane, then their vertices are prefetched for every lane, before any is used: on a
+    /// large mesh each read is a cache miss, and one lane at a time they would wait in turn;
+    /// so the lanes' misses overlap.
     /// (Prefetched rather than copied out: a packet-sized array of vertices would be zeroed
     /// and copied twice on every call.)
-    fn for_each_hit16(&self, rays: &[Ray], coherent: bool, mut visit: impl FnMut(usize, LaneHit)) {
+    fn for_each_hit16(
+        &self,
+        rays: &[Ray],
+        coherent: bool,
+        mut visit: impl FnMut(usize, Option<LaneHit>),
+    ) {
         let (mut packet, mut valid) = (RayHit16::default(), Valid16::default());
         self.trace16(rays, coherent, &mut packet, &mut valid);
         let (r, h) = (&packet.0.ray, &packet.0.hit);
@@ -193,7 +216,11 @@ impl Scene {
         for l in hit_lanes() {
             self.geometries[ids[l] as usize].prefetch_vertices(triangles[l]);
         }
-        for l in hit_lanes() {
+        for l in 0..rays.len() {
+            if valid.0[l] == 0 || h.geomID[l] == ffi::INVALID_GEOMETRY_ID {
+                visit(l, None);
+                continue;
+            }
             let geometry = &self.geometries[ids[l] as usize];
             let (u, v) = geometry.barycentrics(h.u[l], h.v[l]);
             let answer = LaneHit {
@@ -204,7 +231,7 @@ impl Scene {
                 tfar: r.tfar[l],
                 vertices: geometry.world_vertices(triangles[l]),
             };
-            visit(l, answer);
+            visit(l, Some(answer));
         }
     }
 

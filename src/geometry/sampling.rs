@@ -117,6 +117,45 @@ impl Cone {
     }
 }
 
+/// [`Cone::sample`] for `N` lanes at once, lane `l` in `cones[l]` at `(u[l], v[l])`: the
+/// same operations in the same order, bit for bit the same directions, but without its
+/// branches, in loops over the lanes that compile to vector instructions. Photon emission
+/// draws one direction per photon, and one at a time the division and the square root on
+/// each direction's dependency chain were a tenth of the global map's tracing time.
+pub fn sample_cones<const N: usize>(cones: [&Cone; N], u: &[f64; N], v: &[f64; N]) -> [DVec3; N] {
+    // The cones' parts lane by lane (gathered once, so that the loops below only stream).
+    let part = |f: fn(&Cone) -> f64| -> [f64; N] { std::array::from_fn(|l| f(cones[l])) };
+    let (ax, ay, az) = (part(|c| c.axis.x), part(|c| c.axis.y), part(|c| c.axis.z));
+    let (t1x, t1y, t1z) = (part(|c| c.t1.x), part(|c| c.t1.y), part(|c| c.t1.z));
+    let (t2x, t2y, t2z) = (part(|c| c.t2.x), part(|c| c.t2.y), part(|c| c.t2.z));
+    let cos_max = part(|c| c.cos_max);
+    let (mut r, mut cos_phi, mut sin_phi) = ([0.0; N], [0.0; N], [0.0; N]);
+    for l in 0..N {
+        // `concentric_disc_polar`: the signed radius is the larger of `a`, `b` in magnitude,
+        // the divisor of the angle's tangent; it is 0 only at the centre.
+        let (a, b) = (2.0 * u[l] - 1.0, 2.0 * v[l] - 1.0);
+        let wide = a.abs() > b.abs();
+        let (num, den) = if wide { (b, a) } else { (a, b) };
+        let (sin, cos) = quarter_sin_cos(PI / 4.0 * (num / den));
+        r[l] = den;
+        (cos_phi[l], sin_phi[l]) = if wide { (cos, sin) } else { (sin, cos) };
+    }
+    let mut out = [[0.0; 3]; N];
+    for l in 0..N {
+        let w = r[l] * r[l] * (1.0 - cos_max[l]);
+        let sin = (w * (2.0 - w)).max(0.0).sqrt().copysign(r[l]);
+        let (s1, s2, lift) = (sin * cos_phi[l], sin * sin_phi[l], 1.0 - w);
+        let centre = r[l] == 0.0;
+        let d = [
+            ax[l] * lift + t1x[l] * s1 + t2x[l] * s2,
+            ay[l] * lift + t1y[l] * s1 + t2y[l] * s2,
+            az[l] * lift + t1z[l] * s1 + t2z[l] * s2,
+        ];
+        out[l] = if centre { [ax[l], ay[l], az[l]] } else { d };
+    }
+    out.map(DVec3::from_array)
+}
+
 /// A unit vector in the cone of axis `w` and half-angle cosine `cos_max`, uniform in solid angle
 /// ([`Cone::sample`]; a [`Cone`] kept for many samples saves the tangent frame).
 pub fn sample_cone(w: DVec3, cos_max: f64, u: f64, v: f64) -> DVec3 {
@@ -146,11 +185,13 @@ pub fn sample_cosine(n: DVec3, u: f64, v: f64) -> DVec3 {
     (n * (1.0 - u).max(0.0).sqrt() + t1 * (r * cos) + t2 * (r * sin)).normalize()
 }
 
+/// The steps of [`r2`]: 1 / the plastic number, and its square.
+const A1: f64 = 0.754_877_666_246_692_8;
+const A2: f64 = 0.569_840_290_998_053_3;
+
 /// The plastic-number (R2) low-discrepancy sequence: every prefix is well stratified in 2D,
 /// so emission directions are even whatever number of photons ends up emitted.
 pub fn r2(index: u64, shift: [f64; 2]) -> (f64, f64) {
-    const A1: f64 = 0.754_877_666_246_692_8; // 1 / plastic number
-    const A2: f64 = 0.569_840_290_998_053_3; // 1 / plastic number^2
     let i = index as f64;
     // The fractional part of a non-negative x below 2^64, as `fract` gives it but without
     // its `trunc`, a libm call on the x86-64 baseline (no SSE4.1 rounding instruction).
@@ -158,9 +199,77 @@ pub fn r2(index: u64, shift: [f64; 2]) -> (f64, f64) {
     (fract(shift[0] + i * A1), fract(shift[1] + i * A2))
 }
 
+/// [`r2`] for the indices `first + l`, `l < N`: the same numbers, in a loop over the indices
+/// that compiles to vector instructions where the CPU can round to an integer (SSE4.1): there
+/// the fractional part is `x - x.trunc()`, equal to `r2`'s for every `x` in `[0, 2^64)`,
+/// rather than a conversion to an integer and back (a dozen scalar instructions each, for
+/// the conversion's saturation).
+pub fn r2_many<const N: usize>(first: u64, shift: [f64; 2]) -> ([f64; N], [f64; N]) {
+    if !cfg!(target_feature = "sse4.1") {
+        let mut uv = ([0.0; N], [0.0; N]);
+        for l in 0..N {
+            (uv.0[l], uv.1[l]) = r2(first.wrapping_add(l as u64), shift);
+        }
+        return uv;
+    }
+    let fract = |x: f64| x - x.trunc();
+    let (mut u, mut v) = ([0.0; N], [0.0; N]);
+    for l in 0..N {
+        let i = first.wrapping_add(l as u64) as f64;
+        (u[l], v[l]) = (fract(shift[0] + i * A1), fract(shift[1] + i * A2));
+    }
+    (u, v)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cones_sampled_sixteen_at_a_time_are_sampled_one_at_a_time() {
+        let cones: Vec<Cone> = (0..7)
+            .map(|k| {
+                let t = k as f64;
+                let axis = DVec3::new(t.sin(), (1.3 * t).cos(), 0.4 - 0.1 * t).normalize();
+                Cone::new(axis, [-1.0, -0.3, 0.0, 0.5, 0.9, 0.999, 1.0][k])
+            })
+            .collect();
+        // The disc's centre, its edges and diagonals (where the concentric map changes
+        // branch), and points in between.
+        let mut points = vec![
+            (0.5, 0.5),
+            (0.0, 0.0),
+            (1.0 - 1e-16, 0.5),
+            (0.25, 0.25),
+            (0.75, 0.25),
+        ];
+        points.extend((0..200).map(|k| {
+            let t = k as f64;
+            (((t * 0.618) % 1.0), ((t * 0.754) % 1.0))
+        }));
+        let mut checked = 0;
+        for group in points.chunks(16) {
+            let mut u = [0.5; 16];
+            let mut v = [0.5; 16];
+            for (l, &(a, b)) in group.iter().enumerate() {
+                (u[l], v[l]) = (a, b);
+            }
+            let lanes: [&Cone; 16] = std::array::from_fn(|l| &cones[(l + checked) % cones.len()]);
+            let many = sample_cones(lanes, &u, &v);
+            for l in 0..16 {
+                let one = lanes[l].sample(u[l], v[l]);
+                assert_eq!(
+                    many[l].to_array().map(f64::to_bits),
+                    one.to_array().map(f64::to_bits),
+                    "lane {l}: ({}, {})",
+                    u[l],
+                    v[l]
+                );
+            }
+            checked += 16;
+        }
+        assert!(checked >= points.len());
+    }
 
     #[test]
     fn quarter_sin_cos_matches_libm_to_rounding() {
@@ -202,6 +311,12 @@ mod tests {
                 "{index}"
             );
             assert!((0.0..1.0).contains(&u) && (0.0..1.0).contains(&v));
+        }
+        for first in [0, 1 << 20, 1 << 40, u32::MAX as u64 * 3] {
+            let (us, vs) = r2_many::<16>(first, shift);
+            for l in 0..16 {
+                assert_eq!((us[l], vs[l]), r2(first + l as u64, shift), "{first} + {l}");
+            }
         }
     }
 

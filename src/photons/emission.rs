@@ -25,6 +25,8 @@ use crate::util::rng::Rng;
 use glam::DVec3;
 use std::f64::consts::PI;
 
+pub mod batch;
+
 /// One emitted photon before it is traced: its ray differential and its power as if it were
 /// the only photon emitted (the tracer divides by the number of emissions).
 #[derive(Debug, Clone, Copy)]
@@ -325,13 +327,17 @@ impl Emitter {
     }
 
     fn pick_light(&self, rng: &mut Rng) -> (usize, &Light) {
-        let pick = rng.uniform();
-        let k = self
-            .cdf
+        let k = self.pick_from(rng.uniform());
+        (k, &self.sources[k].light)
+    }
+
+    /// The source the uniform `pick` picks.
+    #[inline(always)]
+    fn pick_from(&self, pick: f64) -> usize {
+        self.cdf
             .iter()
             .position(|&c| pick < c)
-            .unwrap_or(self.sources.len() - 1);
-        (k, &self.sources[k].light)
+            .unwrap_or(self.sources.len() - 1)
     }
 
     #[inline(always)]
@@ -342,16 +348,38 @@ impl Emitter {
         rng: &mut Rng,
         start: impl FnOnce(&Launch) -> R,
     ) -> Option<R> {
-        let source = &self.sources[k];
-        let (u, v) = if self.random {
+        let (u, v) = self.square_sample(index, rng);
+        self.emit_drawn(k, (u, v), |cone| cone.sample(u, v), rng, start)
+    }
+
+    /// The point of the unit square emission `index` is drawn from (after its light is
+    /// picked from `rng`; [`Emitter::draw`] draws a group's the same way).
+    #[inline(always)]
+    fn square_sample(&self, index: u64, rng: &mut Rng) -> (f64, f64) {
+        if self.random {
             (rng.uniform(), rng.uniform())
         } else {
             r2(index, self.shift)
-        };
+        }
+    }
+
+    /// [`Emitter::emit_picked`] once the square's point `(u, v)` is drawn: `direction` gives a
+    /// point or spot light's direction from its source's cone (`Cone::sample` at `(u, v)`,
+    /// or that sample drawn beforehand, [`batch`]).
+    #[inline(always)]
+    fn emit_drawn<R>(
+        &self,
+        k: usize,
+        (u, v): (f64, f64),
+        direction: impl FnOnce(&Cone) -> DVec3,
+        rng: &mut Rng,
+        start: impl FnOnce(&Launch) -> R,
+    ) -> Option<R> {
+        let source = &self.sources[k];
         match source.light {
             Light::Point { position, .. } | Light::Spot { position, .. } => {
                 let cone = source.cone.expect("point and spot lights keep their cone");
-                let d = cone.sample(u, v);
+                let d = direction(&cone);
                 if let Some(unit) = self.mixture_spread {
                     return self
                         .emit_mixture(&source.light, position, d, unit)

@@ -6,7 +6,7 @@
 
 use crate::embree::{self, Hit, Ray};
 use crate::geometry::differential::{GlassInterface, RayDifferential};
-use crate::geometry::sampling::{sample_cosine, tangent_frame};
+use crate::geometry::sampling::sample_cosine;
 use crate::geometry::surface::{continuation, surface_frame, transfer_to};
 use crate::photons::emission::{round_beam, Emission, Launch};
 use crate::photons::targets::DiffuseAim;
@@ -68,8 +68,8 @@ pub struct PathState {
     tnear: f64,
     /// Surfaces met so far.
     bounces: u32,
-    /// A round beam the emission left to spell out ([`Launch`]): `ray.dd` is set from it at
-    /// the first hit, before anything reads it.
+    /// A round beam the emission or the last diffuse bounce left to spell out ([`Launch`]):
+    /// `ray.dd` is set from it at the next hit, before anything reads it.
     spread: Option<f64>,
 }
 
@@ -194,7 +194,6 @@ impl LightPaths<'_> {
         let mut exhausted = false;
         let mut queries = [Ray::new(DVec3::ZERO, DVec3::X); WIDTH];
         let mut active = [0usize; WIDTH];
-        let mut hits: [Option<Hit>; WIDTH] = [None; WIDTH];
         loop {
             // Lanes are refilled first and their queries gathered after: a query read back
             // right after its lane's emission was written waits for those stores to land.
@@ -227,18 +226,17 @@ impl LightPaths<'_> {
                 }
                 continue;
             }
+            // Each lane moves on as its answer comes (a hit is used where it was made).
             self.embree
-                .intersect16(&queries[..n], false, &mut hits[..n]);
-            for (j, &k) in active[..n].iter().enumerate() {
-                rays[k] += 1;
-                let tag = tags[k].as_ref().expect("active lane");
-                let go_on = self.advance(&mut states[k], hits[j].as_ref(), &mut rngs[k], |v| {
-                    visit(tag, v)
+                .intersect16_each(&queries[..n], false, |j, hit| {
+                    let k = active[j];
+                    rays[k] += 1;
+                    let tag = tags[k].as_ref().expect("active lane");
+                    let go_on = self.advance(&mut states[k], hit, &mut rngs[k], |v| visit(tag, v));
+                    if !go_on {
+                        done(tags[k].take().expect("active lane"), rays[k]);
+                    }
                 });
-                if !go_on {
-                    done(tags[k].take().expect("active lane"), rays[k]);
-                }
-            }
         }
     }
 
@@ -304,13 +302,15 @@ impl LightPaths<'_> {
                         )
                     }
                 };
-                let (t1, t2) = tangent_frame(d);
+                // The bounce's round beam is spelled out at the next hit, as an emission's:
+                // most bounces of an open scene leave it without meeting anything.
                 state.ray = RayDifferential {
                     p: at.p,
                     d,
                     dp: at.dp,
-                    dd: [t1 * spread, t2 * spread],
+                    dd: [DVec3::ZERO; 2],
                 };
+                state.spread = Some(spread);
                 state.diffuse += 1;
                 true
             }
