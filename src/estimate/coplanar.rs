@@ -4,14 +4,13 @@
 //! the intersection's centroid, is weighted by the intersection's coverage of the view footprint:
 //! `sum f_r Phi_p / A_p K(|M_p (c - x_p)|) w`.
 
-use crate::estimate::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
+use crate::estimate::{batch_of_one, kernel, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::polygon::{area_centroid, intersect_convex, ClipScratch, UnitPolygon};
 use crate::geometry::sampling::tangent_frame;
 use crate::photons::cover::OnSurface;
 use crate::photons::map::{FootprintQuery, PacketSearch, PhotonMap};
 use glam::{DVec2, DVec3, Vec3};
 use std::cell::RefCell;
-use std::f32::consts::FRAC_2_PI;
 use std::f64::consts::FRAC_1_PI;
 
 /// The coplanar intersection-weighted estimate.
@@ -83,15 +82,13 @@ impl CoplanarEstimate<'_> {
             let (position, m) = self.map.filter_frame(i);
             // `photon_kernel` at offset `v` from the photon, from those tables: the slab test
             // (the normal's was made at `x` and does not depend on the point) and the kernel.
-            let kernel = |v: Vec3| {
+            let kernel_at = |v: Vec3| {
                 let (normal, slab) = self.map.surface(i);
                 if normal.dot(v).abs() > slab {
                     return None;
                 }
                 let (s0, s1) = (m[0].dot(v), m[1].dot(v));
-                let r2 = s0 * s0 + s1 * s1;
-                let p = &self.map.flux[i];
-                (r2 < 1.0).then(|| p.power * (p.inv_area * FRAC_2_PI * (1.0 - r2)))
+                kernel(&self.map.flux[i], s0 * s0 + s1 * s1)
             };
             let contribution = if view_area > 0.0 && view_area.is_finite() {
                 let centre = to_2d(position.as_dvec3() - q.position);
@@ -106,11 +103,11 @@ impl CoplanarEstimate<'_> {
                 }
                 let c = u * c.x + v * c.y;
                 let c = q.position + t1 * c.x + t2 * c.y;
-                kernel(c.as_vec3() - position).map(|k| k * w as f32)
+                kernel_at(c.as_vec3() - position).map(|k| k * w as f32)
             } else {
                 // A degenerate view footprint is a point: the plain photon-differential
                 // estimate.
-                kernel(x - position)
+                kernel_at(x - position)
             };
             if let Some(c) = contribution {
                 counts.photons_used += 1;

@@ -26,7 +26,7 @@ pub use select::{EstimatorKind, EstimatorSettings};
 
 use crate::photons::cover::OFF_PLANE_TOLERANCE;
 pub use crate::photons::cover::{same_side, MIN_NORMAL_COSINE};
-use crate::photons::map::Photon;
+use crate::photons::map::{Flux, Photon};
 use glam::{DVec3, Vec3};
 use serde::Serialize;
 
@@ -157,7 +157,14 @@ pub fn photon_kernel(p: &Photon, v: Vec3, n_x: Vec3) -> Option<Vec3> {
     }
     let s0 = p.m[0].dot(v);
     let s1 = p.m[1].dot(v);
-    let r2 = s0 * s0 + s1 * s1;
+    kernel(&Flux::of(p), s0 * s0 + s1 * s1)
+}
+
+/// `Phi / A K(r)` for a photon of flux `p` at squared filter-space distance `r2 = |M v|^2`
+/// (Epanechnikov, `K = (2/pi)(1 - r^2)`), or `None` outside its support: the one spelling of the
+/// kernel every photon-differential estimate evaluates.
+#[inline(always)]
+pub fn kernel(p: &Flux, r2: f32) -> Option<Vec3> {
     (r2 < 1.0).then(|| p.power * (p.inv_area * std::f32::consts::FRAC_2_PI * (1.0 - r2)))
 }
 

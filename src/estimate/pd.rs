@@ -1,12 +1,11 @@
 //! The photon-differential estimate (Schjoth et al. 2007): each photon's kernel in its own
 //! filter space, at the single point the camera ray hits.
 
-use super::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
+use super::{batch_of_one, kernel, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::photons::cover::InFilterSpace;
 use crate::photons::map::{FootprintQuery, PacketSearch, PhotonMap};
 use glam::{DVec3, Vec3};
 use std::cell::RefCell;
-use std::f32::consts::FRAC_2_PI;
 use std::f64::consts::FRAC_1_PI;
 
 thread_local! {
@@ -52,10 +51,9 @@ impl RadianceEstimator for PhotonDifferentialEstimate<'_> {
                 let mut sum = Vec3::ZERO;
                 for &InFilterSpace { slot, s, .. } in found {
                     let r2 = s.x * s.x + s.y * s.y;
-                    if r2 < 1.0 {
+                    if let Some(k) = kernel(&self.map.flux[slot as usize], r2) {
                         counts.photons_used += 1;
-                        let p = &self.map.flux[slot as usize];
-                        sum += p.power * (p.inv_area * FRAC_2_PI * (1.0 - r2));
+                        sum += k;
                     }
                 }
                 *o = q.albedo * FRAC_1_PI * sum.as_dvec3();

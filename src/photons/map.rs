@@ -121,6 +121,17 @@ pub struct Flux {
     pub inv_area: f32,
 }
 
+impl Flux {
+    /// Photon `p`'s flux.
+    #[inline(always)]
+    pub fn of(p: &Photon) -> Self {
+        Flux {
+            power: p.power,
+            inv_area: p.inv_area,
+        }
+    }
+}
+
 impl PhotonMap {
     /// Builds the footprint BVH over `photons`.
     pub fn new(class: PathClass, photons: Vec<Photon>, emitted: u64, guards: Guards) -> Self {
@@ -135,13 +146,7 @@ impl PhotonMap {
             .collect();
         bvh.renumber();
         let cover = CoverTable::new(&photons);
-        let flux = photons
-            .iter()
-            .map(|p| Flux {
-                power: p.power,
-                inv_area: p.inv_area,
-            })
-            .collect();
+        let flux = photons.iter().map(Flux::of).collect();
         PhotonMap {
             flux,
             class,
