@@ -16,6 +16,7 @@
 use super::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::photons::cover::InFilterSpace;
 use crate::photons::map::{FootprintQuery, PacketSearch, PhotonMap};
+use crate::util::blocks::Blocks;
 use glam::{DVec3, Vec2, Vec3};
 use std::cell::RefCell;
 use std::f64::consts::{FRAC_1_PI, FRAC_2_PI};
@@ -28,63 +29,31 @@ pub const LANES: usize = 16;
 type Lanes = f32x16;
 
 /// Filter-space data of a batch of photons (`s.x, s.y, a.x, a.y, b.x, b.y` each), kept as
-/// columns in blocks of [`LANES`] photons, so that a block loads as one [`Lanes`] a column.
-///
-/// Why blocks rather than one `Vec` a column: a photon is added with one capacity check
-/// instead of six (a gather at 1,280,000 photons adds twenty), and cleared blocks are written
-/// over, not freed.
+/// columns in blocks of [`LANES`] photons ([`Blocks`]), so that a block loads as one [`Lanes`]
+/// a column.
 #[derive(Debug, Clone, Default)]
-pub struct KernelBatch {
-    blocks: Vec<[[f32; LANES]; 6]>,
-    len: usize,
-}
+pub struct KernelBatch(Blocks<f32, LANES, 6>);
 
 impl KernelBatch {
     /// Empties the batch, keeping its storage.
     pub fn clear(&mut self) {
-        self.len = 0;
+        self.0.clear();
     }
 
     /// Adds a photon: its filter-space offset `s` and the filter-space footprint axes `a`, `b`.
     #[inline]
     pub fn push(&mut self, s: Vec2, a: Vec2, b: Vec2) {
-        let (block, lane) = (self.len / LANES, self.len % LANES);
-        if block == self.blocks.len() {
-            self.blocks.push([[0.0; LANES]; 6]);
-        }
-        let rows = &mut self.blocks[block];
-        for (column, v) in rows.iter_mut().zip([s.x, s.y, a.x, a.y, b.x, b.y]) {
-            column[lane] = v;
-        }
-        self.len += 1;
+        self.0.push_row([s.x, s.y, a.x, a.y, b.x, b.y]);
     }
 
     /// Number of photons.
     pub fn len(&self) -> usize {
-        self.len
+        self.0.len()
     }
 
     /// Whether the batch is empty.
     pub fn is_empty(&self) -> bool {
-        self.len == 0
-    }
-
-    /// Photon `k`'s six numbers.
-    fn row(&self, k: usize) -> [f32; 6] {
-        let block = &self.blocks[k / LANES];
-        std::array::from_fn(|c| block[c][k % LANES])
-    }
-
-    /// The blocks that hold the batch, the last one's lanes past the batch filled with photons
-    /// whose kernels are zero everywhere.
-    fn padded_blocks(&mut self) -> &[[[f32; LANES]; 6]] {
-        let (blocks, used) = (self.len.div_ceil(LANES), self.len % LANES);
-        if used != 0 {
-            for (c, column) in self.blocks[blocks - 1].iter_mut().enumerate() {
-                column[used..].fill(if c < 2 { 1e6 } else { 0.0 });
-            }
-        }
-        &self.blocks[..blocks]
+        self.0.is_empty()
     }
 }
 
@@ -97,10 +66,11 @@ pub fn sample_offsets(n: u32) -> Vec<f32> {
 /// `offsets`, in SIMD lanes. `out` gets one sum per photon.
 pub fn kernel_sums(batch: &mut KernelBatch, offsets: &[f32], out: &mut Vec<f32>) {
     out.clear();
-    let len = batch.len;
+    let len = batch.len();
     let one = Lanes::splat(1.0);
     let zero = Lanes::ZERO;
-    for block in batch.padded_blocks() {
+    // Padding: photons whose kernels are zero everywhere.
+    for block in batch.0.padded([1e6, 1e6, 0.0, 0.0, 0.0, 0.0]) {
         let [s0, s1, a0, a1, b0, b1] = block.map(Lanes::from);
         let bb = b0 * b0 + b1 * b1;
         let mut acc = zero;
@@ -124,8 +94,8 @@ pub fn kernel_sums(batch: &mut KernelBatch, offsets: &[f32], out: &mut Vec<f32>)
 /// The scalar version of [`kernel_sums`], for comparison in benchmarks and tests.
 pub fn kernel_sums_scalar(batch: &KernelBatch, offsets: &[f32], out: &mut Vec<f32>) {
     out.clear();
-    for k in 0..batch.len {
-        let [s0, s1, a0, a1, b0, b1] = batch.row(k);
+    for k in 0..batch.len() {
+        let [s0, s1, a0, a1, b0, b1] = batch.0.row(k);
         let mut acc = 0.0;
         for &alpha in offsets {
             for &beta in offsets {

@@ -2,6 +2,7 @@
 //! output, input files that are files, the process's memory, a trace for profiling and the request to stop a run early.
 
 pub mod atomic;
+pub mod blocks;
 pub mod input;
 pub mod interrupt;
 pub mod memory;
