@@ -147,7 +147,7 @@ fn memory(bytes: u64) -> String {
 
 /// How `memory` is estimated, printed once after the figures.
 const MEMORY_NOTE: &str = "memory: 12 bytes per position, per normal and per triangle (three \
-    32-bit indices); rendering adds Embree's copy of positions and indices, and its BVH\n";
+    32-bit indices); Embree reads these buffers in place when rendering and adds its BVH\n";
 
 /// The two corners of the mesh's bounding box (none for an empty mesh).
 fn bounds(mesh: &TriangleMesh) -> Vec<[f32; 3]> {
