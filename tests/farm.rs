@@ -121,6 +121,99 @@ fn tiles_and_photon_map_files_give_the_single_process_image_bit_for_bit() {
 }
 
 #[test]
+fn maps_traced_for_an_estimator_take_its_defaults() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let scene = scene(d, "scene.toml", "");
+    // `pd` at its defaults: the thesis's photon counts, no aimed bounces, no wall probes,
+    // none of which the default maps (for `integrated`) have.
+    let whole = d.join("whole.exr");
+    ok(&[
+        "render",
+        s(&scene),
+        "-o",
+        s(&whole),
+        "--quiet",
+        "--estimator",
+        "pd",
+    ]);
+    let maps = d.join("pd.pdm");
+    ok(&[
+        "photons",
+        s(&scene),
+        "-o",
+        s(&maps),
+        "--quiet",
+        "--estimator",
+        "pd",
+    ]);
+    let parts: Vec<PathBuf> = (0..2)
+        .map(|i| {
+            let out = d.join(format!("tile-{i}-of-2.exr"));
+            let t = format!("{i}/2");
+            ok(&[
+                "render",
+                s(&scene),
+                "-o",
+                s(&out),
+                "--tile",
+                &t,
+                "--quiet",
+                "--estimator",
+                "pd",
+                "--photon-maps",
+                s(&maps),
+            ]);
+            out
+        })
+        .collect();
+    let merged = d.join("merged.exr");
+    ok(&["merge", "-o", s(&merged), s(&parts[0]), s(&parts[1])]);
+    assert!(
+        bits(&merged) == bits(&whole),
+        "pd's tiles over its maps differ from one process"
+    );
+    // The default render's maps are not `pd`'s, and say why.
+    let default_maps = d.join("default.pdm");
+    let mut args = vec!["photons", s(&scene), "-o", s(&default_maps), "--quiet"];
+    args.extend(["--photons", "20000", "--caustic-photons", "5000"]);
+    ok(&args);
+    let out = d.join("x.exr");
+    let e = error(&[
+        "render",
+        s(&scene),
+        "-o",
+        s(&out),
+        "--estimator",
+        "pd",
+        "--photons",
+        "20000",
+        "--caustic-photons",
+        "5000",
+        "--photon-maps",
+        s(&default_maps),
+    ]);
+    assert!(
+        e.ends_with("photon maps traced with other settings: --global-aim is 0.15 in the file, 0 in this render"),
+        "{e}"
+    );
+    // An estimator without photon maps has none to trace.
+    let e = error(&[
+        "photons",
+        s(&scene),
+        "-o",
+        s(&out),
+        "--estimator",
+        "lighttrace",
+    ]);
+    assert_eq!(
+        e,
+        "photondiff: error: --estimator lighttrace uses no photon maps"
+    );
+    assert!(!out.exists());
+}
+
+#[test]
 fn progressive_tiles_give_the_single_process_image_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();

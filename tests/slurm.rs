@@ -161,12 +161,23 @@ impl Cluster {
     }
 
     /// Submits through farm/slurm/submit.sh; returns the merge job's id and the image's path.
-    fn submit(&self, scene: &Path, out: &Path, extra: &[&str]) -> (String, PathBuf) {
+    /// `render` options go after `--`.
+    fn submit(
+        &self,
+        scene: &Path,
+        out: &Path,
+        extra: &[&str],
+        render: &[&str],
+    ) -> (String, PathBuf) {
         let submit = format!("{ROOT}/farm/slurm/submit.sh");
         let mut args = vec![submit.as_str(), "--tiles", "4", "--cpus-per-task", "1"];
         args.extend(extra);
         args.extend(PHOTONS);
         args.extend([scene.to_str().unwrap(), out.to_str().unwrap()]);
+        if !render.is_empty() {
+            args.push("--");
+            args.extend(render);
+        }
         let printed = self.run(&args);
         let field = |name: &str| {
             printed
@@ -303,7 +314,7 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
     );
 
     // All tiles succeed.
-    let (merge, image) = cluster.submit(&scene, &d.join("run"), &[]);
+    let (merge, image) = cluster.submit(&scene, &d.join("run"), &[], &[]);
     assert_eq!(cluster.wait(&merge), "COMPLETED");
     assert!(
         bits(&image) == reference,
@@ -313,12 +324,12 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
     // Tile 2 fails: the merge job is cancelled, not left pending, and writes nothing.
     let run = d.join("drill");
     std::fs::create_dir_all(run.join("parts/tile-2-of-4.exr")).unwrap();
-    let (merge, image) = cluster.submit(&scene, &run, &[]);
+    let (merge, image) = cluster.submit(&scene, &run, &[], &[]);
     assert_eq!(cluster.wait(&merge), "CANCELLED");
     assert!(!image.exists());
     // Re-running only index 2 (with the photon maps already there) and merging again.
     std::fs::remove_dir(run.join("parts/tile-2-of-4.exr")).unwrap();
-    let (merge, image2) = cluster.submit(&scene, &run, &["--array", "2"]);
+    let (merge, image2) = cluster.submit(&scene, &run, &["--array", "2"], &[]);
     assert_eq!(image2, image);
     assert_eq!(cluster.wait(&merge), "COMPLETED");
     assert!(
@@ -338,7 +349,7 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
     args.extend(PHOTONS);
     assert!(Command::new(EXE).args(&args).status().unwrap().success());
     let extra = ["--tiles", "2", "--passes", "3", "--pass-ranges", "2"];
-    let (merge, image) = cluster.submit(&scene, &d.join("passes"), &extra);
+    let (merge, image) = cluster.submit(&scene, &d.join("passes"), &extra, &[]);
     assert_eq!(cluster.wait(&merge), "COMPLETED");
     assert!(
         d.join("passes/parts/tile-1-of-2.passes-1-3.exr").exists(),
@@ -347,5 +358,24 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
     assert!(
         bits(&image) == bits(&progressive),
         "the pass-range image differs from one process"
+    );
+
+    // Another estimator after `--`: the photons job traces the maps its render would (the
+    // thesis's defaults for `pd`, not the default render's), which the tiles accept.
+    let pd = d.join("pd.exr");
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        pd.to_str().unwrap(),
+    ];
+    args.extend(["--quiet", "--estimator", "pd"]);
+    args.extend(PHOTONS);
+    assert!(Command::new(EXE).args(&args).status().unwrap().success());
+    let (merge, image) = cluster.submit(&scene, &d.join("pd"), &[], &["--estimator", "pd"]);
+    assert_eq!(cluster.wait(&merge), "COMPLETED");
+    assert!(
+        bits(&image) == bits(&pd),
+        "the Slurm image of --estimator pd differs from one process"
     );
 }

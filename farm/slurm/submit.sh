@@ -16,8 +16,12 @@
 #   --array LIST         only these task indices (e.g. 2 or 1,3): re-runs failed tasks, reusing
 #                        OUTDIR/photons.pdm when it exists, then merges all parts again
 #   --partition P        Slurm partition (default: the cluster's default)
-#   --photons, --caustic-photons, --overlap, --seed: photon settings, for the maps and the tiles
-#   RENDER_OPTIONS       further `photondiff render` options, e.g. --estimator multisampled
+#   --photons, --caustic-photons, --overlap, --seed, --global-aim, --probe-walls: photon
+#                        settings, for the maps and the tiles
+#   RENDER_OPTIONS       further `photondiff render` options, e.g. --estimator multisampled;
+#                        those that decide the photon maps (--estimator and the photon
+#                        settings above) go to the photons job too, so the maps are the ones
+#                        the tiles' render would trace
 #
 # OUTDIR must be on a file system every node sees. Writes OUTDIR/photons.pdm,
 # OUTDIR/parts/tile-I-of-N[.passes-A-B].exr, OUTDIR/<scene name>.exr (+ .png, .stats.json) and the jobs'
@@ -35,7 +39,7 @@ while [ $# -gt 0 ]; do
         --cpus-per-task) cpus=$2; shift 2 ;;
         --array) array=$2; shift 2 ;;
         --partition) partition=$2; shift 2 ;;
-        --photons|--caustic-photons|--overlap|--seed)
+        --photons|--caustic-photons|--overlap|--seed|--global-aim|--probe-walls)
             photon_options="$photon_options $1 $2"; shift 2 ;;
         -h|--help) usage ;;
         -*) echo "submit.sh: unknown option $1" >&2; usage ;;
@@ -48,6 +52,20 @@ mkdir -p "$2"
 out=$(realpath "$2")
 shift 2
 [ "${1:-}" = "--" ] && shift
+# The render options that decide the photon maps, for the photons job as well: maps traced
+# with other settings than the tiles' render are refused by `render --photon-maps`.
+previous= map_options=
+for option in "$@"; do
+    case $previous in
+        --estimator|--photons|--caustic-photons|--overlap|--seed|--global-aim|--probe-walls)
+            map_options="$map_options $previous $option" ;;
+    esac
+    case $option in
+        --estimator=*|--photons=*|--caustic-photons=*|--overlap=*|--seed=*|--global-aim=*|--probe-walls=*)
+            map_options="$map_options $option" ;;
+    esac
+    previous=$option
+done
 [ -n "$passes" ] || [ "$ranges" = 1 ] || { echo "submit.sh: --pass-ranges needs --passes" >&2; exit 1; }
 for n in "$tiles" "${passes:-1}" "$ranges"; do
     case $n in ''|0|*[!0-9]*) echo "submit.sh: --tiles, --passes and --pass-ranges take whole numbers >= 1, got $n" >&2; exit 1 ;; esac
@@ -73,7 +91,7 @@ dependency=
 if [ -z "$array" ] || [ ! -e "$maps" ]; then
     # shellcheck disable=SC2086 # word splitting of the option lists is intended
     photons_job=$(sbatch $common --cpus-per-task="$cpus" --output="$logs/photons-%j.out" \
-        "$here/photons.sbatch" "$photondiff" "$scene" "$maps" $photon_options)
+        "$here/photons.sbatch" "$photondiff" "$scene" "$maps" $photon_options $map_options)
     echo "photons job: $photons_job"
     dependency="--dependency=afterok:$photons_job --kill-on-invalid-dep=yes"
 fi

@@ -2,9 +2,12 @@
 //! `render --photon-maps` reads (format: `photondiff::photons::file`).
 
 use super::create_parent;
+use super::render::estimator_name;
 use photondiff::embree::Device;
+use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
 use photondiff::photons::trace::{PhotonOptions, TraceCounts};
+use photondiff::render::passes::RenderDefaults;
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::scene::file::load_scene;
@@ -18,29 +21,32 @@ pub struct PhotonsArgs {
     /// The photon-map file to write.
     #[arg(short = 'o', long = "output", value_name = "MAPS")]
     output: PathBuf,
-    /// Photons stored in the global map (as `render --photons`; the default is the default
-    /// render's, 50,000: maps for the thesis's estimators take `--photons 100000`).
+    /// The estimator whose render will read the maps: the maps take that render's defaults
+    /// (as `render --estimator`): `integrated`, the default render's, or the thesis's for
+    /// `jensen`, `pd`, `coplanar` and `multisampled`. The options below override them.
+    #[arg(long, value_enum, default_value = "integrated")]
+    estimator: EstimatorKind,
+    /// Photons stored in the global map (as `render --photons`; default: the estimator's,
+    /// 50,000 for `integrated`, 100,000 for the thesis's estimators).
     #[arg(long = "photons", value_name = "N", value_parser = super::photon_count)]
     global_photons: Option<usize>,
-    /// Photons stored in the caustic map (as `render --caustic-photons`; the default is the
-    /// default render's, 60,000: maps for `--estimator pd` and the thesis's other estimators
-    /// at their default take `--caustic-photons 20000`).
+    /// Photons stored in the caustic map (as `render --caustic-photons`; default: the
+    /// estimator's, 60,000 for `integrated`, 20,000 for the thesis's estimators).
     #[arg(long, value_name = "N", value_parser = super::photon_count)]
     caustic_photons: Option<usize>,
     /// Photon footprint size (as `render --overlap`).
     #[arg(long, value_name = "X", default_value_t = 32.0)]
     overlap: f64,
     /// Share of the global photons' diffuse bounces (and a third of it, of their emissions)
-    /// aimed at the mirror and glass objects (as `render --global-aim`; the default is the default render's, 0.15: maps for
-    /// `--estimator pd` and the thesis's other estimators take `--global-aim 0`).
-    #[arg(long, value_name = "P", default_value_t = photondiff::render::passes::DEFAULT_GLOBAL_AIM)]
-    global_aim: f64,
+    /// aimed at the mirror and glass objects (as `render --global-aim`; default: the
+    /// estimator's, 0.15 for `integrated`, 0 for the thesis's estimators).
+    #[arg(long, value_name = "P")]
+    global_aim: Option<f64>,
     /// Whether each photon's footprint is probed for walls and edges and a mirror photon added
-    /// beyond the nearest (as `render --probe-walls`; the default is the default
-    /// render's, true: maps for `--estimator pd` and the thesis's other estimators take
-    /// `--probe-walls false`).
-    #[arg(long, value_name = "BOOL", default_value_t = photondiff::render::passes::DEFAULT_PROBE_WALLS, action = clap::ArgAction::Set)]
-    probe_walls: bool,
+    /// beyond the nearest (as `render --probe-walls`; default: the estimator's, true for
+    /// `integrated`, false for the thesis's estimators).
+    #[arg(long, value_name = "BOOL", action = clap::ArgAction::Set)]
+    probe_walls: Option<bool>,
     /// Seed of the photons' random streams (as `render --seed`).
     #[arg(long, value_name = "S", default_value_t = 0)]
     seed: u64,
@@ -62,10 +68,21 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
             super::shown(args.overlap)
         ));
     }
-    if !(0.0..1.0).contains(&args.global_aim) {
+    if matches!(
+        args.estimator,
+        EstimatorKind::Direct | EstimatorKind::Lighttrace
+    ) {
+        return Err(format!(
+            "--estimator {} uses no photon maps",
+            estimator_name(args.estimator)
+        ));
+    }
+    let defaults = RenderDefaults::for_estimator(args.estimator);
+    let global_aim = args.global_aim.unwrap_or(defaults.global_aim);
+    if !(0.0..1.0).contains(&global_aim) {
         return Err(format!(
             "--global-aim must be at least 0 and less than 1, got {}",
-            super::shown(args.global_aim)
+            super::shown(global_aim)
         ));
     }
     let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;
@@ -76,16 +93,12 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         .build_embree(&device)
         .map_err(|e| format!("{}: {e}", args.scene.display()))?;
     let options = PhotonOptions {
-        global_photons: args
-            .global_photons
-            .unwrap_or(photondiff::render::passes::DEFAULT_GLOBAL_PHOTONS),
-        caustic_photons: args
-            .caustic_photons
-            .unwrap_or(photondiff::render::passes::DEFAULT_CAUSTIC_PHOTONS),
+        global_photons: args.global_photons.unwrap_or(defaults.global_photons),
+        caustic_photons: args.caustic_photons.unwrap_or(defaults.caustic_photons),
         overlap: args.overlap,
         seed: args.seed,
-        global_aim: args.global_aim,
-        probe_walls: args.probe_walls,
+        global_aim,
+        probe_walls: args.probe_walls.unwrap_or(defaults.probe_walls),
         ..PhotonOptions::default()
     };
     super::warn_photon_memory(

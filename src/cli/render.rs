@@ -653,7 +653,7 @@ fn stop_on_ctrl_c(first: &'static str) {
 }
 
 /// An estimator's name as `--estimator` takes it.
-fn estimator_name(kind: EstimatorKind) -> String {
+pub(super) fn estimator_name(kind: EstimatorKind) -> String {
     use clap::ValueEnum;
     kind.to_possible_value()
         .map_or_else(|| format!("{kind:?}"), |v| v.get_name().to_string())
