@@ -27,7 +27,8 @@ pub struct ReportArgs {
     )]
     output: PathBuf,
     /// Scene file the images were rendered from: its regions of interest (floor = pixels whose
-    /// camera ray first hits a diffuse surface, caustic, contour; as in the timing table) are
+    /// camera ray first hits a diffuse surface, caustic, contour, shadow = floor outside the
+    /// caustic where every point and spot light is blocked; as in the timing table) are
     /// measured and cropped. Its camera must have the reference's size.
     #[arg(long, value_name = "SCENE.toml")]
     scene: Option<PathBuf>,
