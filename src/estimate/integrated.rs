@@ -175,10 +175,17 @@ impl IntegratedEstimate<'_> {
                             let weight = weights.map(|column| column[k]);
                             scratch.quads.push_weighted(general.lane(k), weight);
                             scratch.general_quads.push((j, self.map.flux[i as usize]));
-                        } else {
-                            let overlap = self.settle(e, (s[k], a[k], b[k]), i, j, scratch);
-                            total += self.closed_form(overlap, i, j, scratch, counts);
+                            continue;
                         }
+                        // Settled in the lanes as `settle` would settle them, else by it.
+                        let overlap = if general.disc_inside >> k & 1 == 1 {
+                            Overlap::Mean(general.means[k] * weights[0][k])
+                        } else if general.inside >> k & 1 == 1 {
+                            Overlap::Mean(e.weighted_inside(s[k], a[k], b[k], general.means[k]))
+                        } else {
+                            self.settle(e, (s[k], a[k], b[k]), i, j, scratch)
+                        };
+                        total += self.closed_form(overlap, i, j, scratch, counts);
                     }
                 }
                 None => {

@@ -115,6 +115,12 @@ impl QuadFrame {
         self.beta
     }
 
+    /// The area means of `alpha`, `beta`, `alpha^2`, `alpha beta`, `beta^2` (the inside case's
+    /// moments).
+    pub(super) fn moments(&self) -> [f64; 5] {
+        self.moments
+    }
+
     /// The largest squared distance of a vertex from [`QuadFrame::centre`].
     pub(super) fn spread2(&self) -> f64 {
         self.spread2
