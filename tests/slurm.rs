@@ -279,6 +279,22 @@ fn bits(path: &Path) -> Vec<[u64; 3]> {
         .collect()
 }
 
+/// The image of `scene` rendered in one process with `extra` and the test's photon counts, as
+/// bits (written to `out`).
+fn single_process(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[u64; 3]> {
+    let mut args = vec![
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.push("--quiet");
+    args.extend(extra);
+    args.extend(PHOTONS);
+    assert!(Command::new(EXE).args(&args).status().unwrap().success());
+    bits(out)
+}
+
 #[test]
 fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed_tile() {
     if let Err(why) = install_slurm() {
@@ -294,18 +310,7 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
         .replace("height = 480", "height = 128");
     let scene = d.join("caustic-sphere.toml");
     std::fs::write(&scene, text).unwrap();
-    let single = d.join("single.exr");
-    let mut args = vec![
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        single.to_str().unwrap(),
-        "--quiet",
-    ];
-    args.extend(PHOTONS);
-    let status = Command::new(EXE).args(&args).status().unwrap();
-    assert!(status.success());
-    let reference = bits(&single);
+    let reference = single_process(&scene, &d.join("single.exr"), &[]);
 
     let cluster = Cluster::start(&d.join("slurm"));
     eprintln!(
@@ -338,16 +343,7 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
     );
 
     // Tiles and pass ranges: 2 tiles x 2 ranges of 3 passes, against 3 passes in one process.
-    let progressive = d.join("progressive.exr");
-    let mut args = vec![
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        progressive.to_str().unwrap(),
-    ];
-    args.extend(["--quiet", "--passes", "3"]);
-    args.extend(PHOTONS);
-    assert!(Command::new(EXE).args(&args).status().unwrap().success());
+    let progressive = single_process(&scene, &d.join("progressive.exr"), &["--passes", "3"]);
     let extra = ["--tiles", "2", "--passes", "3", "--pass-ranges", "2"];
     let (merge, image) = cluster.submit(&scene, &d.join("passes"), &extra, &[]);
     assert_eq!(cluster.wait(&merge), "COMPLETED");
@@ -356,26 +352,17 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
         "task 3 renders tile 1, passes 1..3"
     );
     assert!(
-        bits(&image) == bits(&progressive),
+        bits(&image) == progressive,
         "the pass-range image differs from one process"
     );
 
     // Another estimator after `--`: the photons job traces the maps its render would (the
     // thesis's defaults for `pd`, not the default render's), which the tiles accept.
-    let pd = d.join("pd.exr");
-    let mut args = vec![
-        "render",
-        scene.to_str().unwrap(),
-        "-o",
-        pd.to_str().unwrap(),
-    ];
-    args.extend(["--quiet", "--estimator", "pd"]);
-    args.extend(PHOTONS);
-    assert!(Command::new(EXE).args(&args).status().unwrap().success());
+    let pd = single_process(&scene, &d.join("pd.exr"), &["--estimator", "pd"]);
     let (merge, image) = cluster.submit(&scene, &d.join("pd"), &[], &["--estimator", "pd"]);
     assert_eq!(cluster.wait(&merge), "COMPLETED");
     assert!(
-        bits(&image) == bits(&pd),
+        bits(&image) == pd,
         "the Slurm image of --estimator pd differs from one process"
     );
 }
