@@ -176,23 +176,13 @@ fn maps_traced_for_an_estimator_take_its_defaults() {
     // The default render's maps are not `pd`'s, and say why.
     let default_maps = d.join("default.pdm");
     let mut args = vec!["photons", s(&scene), "-o", s(&default_maps), "--quiet"];
-    args.extend(["--photons", "20000", "--caustic-photons", "5000"]);
+    args.extend(PHOTONS);
     ok(&args);
     let out = d.join("x.exr");
-    let e = error(&[
-        "render",
-        s(&scene),
-        "-o",
-        s(&out),
-        "--estimator",
-        "pd",
-        "--photons",
-        "20000",
-        "--caustic-photons",
-        "5000",
-        "--photon-maps",
-        s(&default_maps),
-    ]);
+    let mut args = vec!["render", s(&scene), "-o", s(&out), "--estimator", "pd"];
+    args.extend(PHOTONS);
+    args.extend(["--photon-maps", s(&default_maps)]);
+    let e = error(&args);
     assert!(
         e.ends_with("photon maps traced with other settings: --global-aim is 0.15 in the file, 0 in this render"),
         "{e}"
