@@ -32,7 +32,6 @@
 //! (`pd`). The gather asks the map for every photon whose footprint may overlap `V`
 //! ([`PhotonMap::covering`]), as the multi-sampled estimate does.
 
-use super::totals::add_in_runs;
 use super::{batch_of_one, ExactFootprint, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::geometry::disc_integral::general_lanes::{classify_parallelograms, Placements};
 use crate::geometry::disc_integral::quad::{quad_means, QuadBatch, QuadOverlap};
@@ -359,17 +358,13 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             scratch.search = search;
             parallelogram_means(&mut scratch.batch, &mut scratch.means);
             quad_means(&mut scratch.quads, &mut scratch.quad_means);
-            // The parallelograms' photons, then the quadrilaterals'.
-            for (owners, means) in [
-                (&scratch.general, &scratch.means),
-                (&scratch.general_quads, &scratch.quad_means),
-            ] {
-                let used = owners.iter().zip(means).filter(|&(_, &mean)| mean > 0.0);
-                let terms = used.map(|(&(j, ref p), &mean)| {
+            let owners = scratch.general.iter().chain(&scratch.general_quads);
+            let means = scratch.means.iter().chain(&scratch.quad_means);
+            for (&(j, ref p), &mean) in owners.zip(means) {
+                if mean > 0.0 {
                     counts.photons_used += 1;
-                    (j, p.power * (p.inv_area * mean as f32))
-                });
-                add_in_runs(&mut scratch.totals, terms);
+                    scratch.totals[j as usize] += p.power * (p.inv_area * mean as f32);
+                }
             }
             for ((o, q), total) in out.iter_mut().zip(queries).zip(&scratch.totals) {
                 *o = q.albedo * (FRAC_1_PI * FRAC_2_PI) * total.as_dvec3();

@@ -14,7 +14,6 @@ pub mod jensen;
 pub mod multisampled;
 pub mod pd;
 pub mod select;
-pub mod totals;
 
 pub use coplanar::CoplanarEstimate;
 pub use exact_footprint::{ExactFootprint, FootprintRequest};

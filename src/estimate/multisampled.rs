@@ -13,7 +13,6 @@
 //! at the default photon count a gather holds three or four photons, which alone would leave
 //! most of a batch's lanes padding.
 
-use super::totals::add_in_runs;
 use super::{batch_of_one, GatherCounts, GatherQuery, RadianceEstimator};
 use crate::photons::cover::InFilterSpace;
 use crate::photons::map::{FootprintQuery, PacketSearch, PhotonMap};
@@ -192,13 +191,13 @@ impl RadianceEstimator for MultiSampledEstimate<'_> {
             kernel_sums(&mut scratch.batch, &self.offsets, &mut scratch.sums);
             scratch.totals.clear();
             scratch.totals.resize(queries.len(), Vec3::ZERO);
-            let used = scratch.used.iter().zip(&scratch.sums);
-            let terms = used.filter(|&(_, &sum)| sum > 0.0).map(|(&(j, i), &sum)| {
-                counts.photons_used += 1;
-                let p = &self.map.flux[i as usize];
-                (j, p.power * (p.inv_area * sum))
-            });
-            add_in_runs(&mut scratch.totals, terms);
+            for (&(j, i), &sum) in scratch.used.iter().zip(&scratch.sums) {
+                if sum > 0.0 {
+                    counts.photons_used += 1;
+                    let p = &self.map.flux[i as usize];
+                    scratch.totals[j as usize] += p.power * (p.inv_area * sum);
+                }
+            }
             let n2 = (self.grid * self.grid) as f64;
             for ((o, q), total) in out.iter_mut().zip(queries).zip(&scratch.totals) {
                 *o = q.albedo * (FRAC_1_PI * FRAC_2_PI / n2) * total.as_dvec3();
