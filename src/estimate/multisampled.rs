@@ -29,7 +29,7 @@ pub const LANES: usize = 16;
 type Lanes = f32x16;
 
 /// Filter-space data of a batch of photons (`s.x, s.y, a.x, a.y, b.x, b.y` each), kept as
-/// columns in blocks of [`LANES`] photons ([`Blocks`]), so that a block loads as one [`Lanes`]
+/// columns in blocks of [`LANES`] photons ([`Blocks`]), so that a block loads as one `f32x16`
 /// a column.
 #[derive(Debug, Clone, Default)]
 pub struct KernelBatch(Blocks<f32, LANES, 6>);
