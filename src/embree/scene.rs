@@ -3,7 +3,6 @@
 use super::device::{Device, DeviceHandle, EmbreeError};
 use super::ffi;
 use super::mesh::TriangleMesh;
-use super::prefetch::prefetch;
 use glam::{DAffine3, DMat3, DVec3};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -113,6 +112,20 @@ impl Geometry {
             _ => (u, v),
         }
     }
+}
+
+/// A hint to load the cache line holding `value` (nothing on targets without one).
+#[inline(always)]
+fn prefetch<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is only a hint: it never faults, reads nothing into the program and
+    // writes nothing; the pointer comes from a live reference anyway.
+    unsafe {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        _mm_prefetch::<_MM_HINT_T0>((value as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
 }
 
 /// Pads `mesh` for Embree (a copy) unless it already is.

@@ -2,7 +2,6 @@
 //! queries ([`crate::photons::footprint_bvh`]) and a kd-tree (kiddo, built on first use) for
 //! k-nearest queries.
 
-use crate::embree::prefetch_all;
 use crate::photons::cover::{CoverQuery, CoverTable, Found};
 use crate::photons::footprint::{Footprint, Guards};
 use crate::photons::footprint_bvh::{footprint_box, Aabb, FootprintBvh, PacketBoxes, PACKET_SIZE};
@@ -192,7 +191,6 @@ impl PhotonMap {
         // The photons are in leaf order, so a leaf's slots are its photons' indices.
         self.bvh
             .leaves_meeting(&query, prism.as_ref(), |first, count| {
-                self.prefetch_flux(first, count);
                 self.cover.leaf(first, count, &q, out)
             });
     }
@@ -235,7 +233,6 @@ impl PhotonMap {
                 if let Some(prism) = prism {
                     self.bvh
                         .leaves_meeting(&query, Some(&prism), |first, count| {
-                            self.prefetch_flux(first, count);
                             self.cover.leaf(first, count, &q, out)
                         });
                 } else {
@@ -246,22 +243,8 @@ impl PhotonMap {
             let packet = PacketBoxes::new(&boxes[..queries.len()], together);
             self.bvh
                 .leaves_meeting_packet(&packet, |first, count, meeting| {
-                    self.prefetch_flux(first, count);
                     self.cover.leaf_packet(first, count, &covers, meeting, outs)
                 });
-        }
-    }
-
-    /// Starts loading the powers ([`PhotonMap::flux`]) of the leaf's photons `first..first +
-    /// count` while the leaf is tested: an estimator reads each photon found next, and in a
-    /// large map those reads missed the cache one after another. At 1,280,000 caustic photons
-    /// `integrated`'s render stage fell 5-6% with this (binaries alternated, medians of 15: one
-    /// thread 0.865 -> 0.814 s, two 0.447 -> 0.426 s); the other estimators' moved less than
-    /// the machine's noise.
-    #[inline(always)]
-    fn prefetch_flux(&self, first: usize, count: usize) {
-        if let Some(leaf) = self.flux.get(first..first + count) {
-            prefetch_all(leaf);
         }
     }
 
