@@ -6,9 +6,7 @@
 //!   (one BVH per mesh) and commits them into an immutable,
 //!   `Send + Sync` [`Scene`];
 //! - [`Scene::intersect`] / [`Scene::occluded`] for single rays and [`Scene::intersect16`] /
-//!   [`Scene::occluded16`] for 16-wide packets, answering `Option<Hit>` / `bool`;
-//! - [`prefetch`] / [`prefetch_all`]: a cache hint, which the photon maps take too (its one
-//!   `unsafe` block is why it lives here).
+//!   [`Scene::occluded16`] for 16-wide packets, answering `Option<Hit>` / `bool`.
 //!
 //! Debian's Embree keeps its internal assertions, so a ray with a NaN or infinite component (or one
 //! beyond ~1.8e18, or a negative `tnear`) would abort the whole process. Every ray is therefore
