@@ -64,13 +64,21 @@ fn bits(path: &Path) -> Vec<[u64; 3]> {
         .collect()
 }
 
-/// Renders tile `i` of `n` of `scene` into `dir`, returning the part's path.
+/// Renders tile `i` of `n` of `scene` into `dir` with the file's photon counts and `extra`,
+/// returning the part's path.
 fn tile(scene: &Path, dir: &Path, i: u32, n: u32, extra: &[&str]) -> PathBuf {
+    let mut options = PHOTONS.to_vec();
+    options.extend(extra);
+    tile_with(scene, dir, i, n, &options)
+}
+
+/// Renders tile `i` of `n` of `scene` into `dir` with `options` alone (the render's defaults
+/// otherwise), returning the part's path.
+fn tile_with(scene: &Path, dir: &Path, i: u32, n: u32, options: &[&str]) -> PathBuf {
     let out = dir.join(format!("tile-{i}-of-{n}.exr"));
     let t = format!("{i}/{n}");
     let mut args = vec!["render", s(scene), "-o", s(&out), "--tile", &t, "--quiet"];
-    args.extend(PHOTONS);
-    args.extend(extra);
+    args.extend(options);
     ok(&args);
     out
 }
@@ -147,25 +155,9 @@ fn maps_traced_for_an_estimator_take_its_defaults() {
         "--estimator",
         "pd",
     ]);
+    let pd_maps = ["--estimator", "pd", "--photon-maps", s(&maps)];
     let parts: Vec<PathBuf> = (0..2)
-        .map(|i| {
-            let out = d.join(format!("tile-{i}-of-2.exr"));
-            let t = format!("{i}/2");
-            ok(&[
-                "render",
-                s(&scene),
-                "-o",
-                s(&out),
-                "--tile",
-                &t,
-                "--quiet",
-                "--estimator",
-                "pd",
-                "--photon-maps",
-                s(&maps),
-            ]);
-            out
-        })
+        .map(|i| tile_with(&scene, d, i, 2, &pd_maps))
         .collect();
     let merged = d.join("merged.exr");
     ok(&["merge", "-o", s(&merged), s(&parts[0]), s(&parts[1])]);
