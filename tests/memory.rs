@@ -77,14 +77,21 @@ fn statistics_account_for_meshes_and_the_bvh_and_bvh_settings_keep_the_hits() {
             12 * (m.mesh.positions.len() + normals + m.mesh.triangles.len()) as u64
         })
         .sum();
-    let (high, high_pixels) = render(&path, "high", &[]);
+    let (high, high_pixels) = render(&path, "high", &["--bvh-quality", "high"]);
     let (compact, compact_pixels) = render(
         &path,
         "compact",
         &["--bvh-quality", "medium", "--bvh-compact"],
     );
+    let (default, default_pixels) = render(&path, "default", &[]);
     let get = |s: &serde_json::Value, k: &str| s["memory"][k].as_f64().unwrap();
-    for s in [&high, &compact] {
+    // The settings each run built with: the default is Embree's binned SAH (`medium`).
+    let settings = |s: &serde_json::Value| s["memory"]["bvh"].clone();
+    let expected = |quality: &str, compact: bool| serde_json::json!({"quality": quality, "compact": compact, "robust": false});
+    assert_eq!(settings(&default), expected("medium", false));
+    assert_eq!(settings(&high), expected("high", false));
+    assert_eq!(settings(&compact), expected("medium", true));
+    for s in [&high, &compact, &default] {
         assert_eq!(get(s, "triangles") as u64, triangles);
         assert_eq!(get(s, "mesh_bytes") as u64, mesh_bytes);
         // Embree's BVH for 2.6e5 triangles takes megabytes, and its build needs at least that.
@@ -97,11 +104,63 @@ fn statistics_account_for_meshes_and_the_bvh_and_bvh_settings_keep_the_hits() {
     // The compact, medium-quality BVH is smaller and builds with less memory...
     assert!(get(&compact, "bvh_bytes") < 0.75 * get(&high, "bvh_bytes"));
     assert!(get(&compact, "bvh_build_peak_bytes") < get(&high, "bvh_build_peak_bytes"));
-    // ...and finds the same hits: the same image.
+    // ...and every BVH finds the same hits: the same image.
     let mean: f64 = high_pixels.iter().map(|p| p.element_sum()).sum::<f64>();
-    let diff: f64 = high_pixels
+    for (name, pixels) in [("compact", &compact_pixels), ("default", &default_pixels)] {
+        let diff: f64 = high_pixels
+            .iter()
+            .zip(pixels)
+            .map(|(a, b)| (*a - *b).abs().element_sum())
+            .sum();
+        assert!(
+            diff <= 1e-6 * mean,
+            "{name}: images differ by {diff} (sum {mean})"
+        );
+    }
+}
+
+/// A compact and robust BVH renders, and as the robust one alone does. Debian's Embree 3.13.5
+/// loops forever on the coherent shadow packets of such a scene, so photondiff sends its
+/// packets there without the coherent flag; the render is given two minutes (it takes a
+/// fraction of a second) and killed after them, so that a regression fails instead of hanging.
+#[test]
+fn a_compact_and_robust_bvh_renders_as_the_robust_one_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene(dir.path());
+    let exr = dir.path().join("compact-robust.exr");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("render")
+        .arg(&path)
+        .args(["-q", "--photons", "5000", "--caustic-photons", "5000"])
+        .args(["--bvh-compact", "--bvh-robust", "-o"])
+        .arg(&exr)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if start.elapsed() > std::time::Duration::from_secs(120) {
+            // Only the process this test started, by its handle.
+            child.kill().unwrap();
+            child.wait().unwrap();
+            panic!("a compact and robust BVH: the render did not finish in two minutes");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    };
+    assert!(status.success());
+    let compact = photondiff::render::part::read_part(&exr)
+        .unwrap()
+        .film
+        .pixels;
+    let (_, robust) = render(&path, "robust", &["--bvh-robust"]);
+    let mean: f64 = robust.iter().map(|p| p.element_sum()).sum::<f64>();
+    let diff: f64 = robust
         .iter()
-        .zip(&compact_pixels)
+        .zip(&compact)
         .map(|(a, b)| (*a - *b).abs().element_sum())
         .sum();
     assert!(diff <= 1e-6 * mean, "images differ by {diff} (sum {mean})");

@@ -240,8 +240,8 @@ impl Scene {
     /// Out-parameters, not a returned pair: the packet is over a kilobyte, and a returned one
     /// may be copied on the hot path of photon tracing.
     fn trace16(&self, rays: &[Ray], coherent: bool, packet: &mut RayHit16, valid: &mut Valid16) {
-        // As in `occluded16`: no coherent packets through instances.
-        let coherent = coherent && !self.has_instances();
+        // As in `occluded16`: not where Embree can loop forever on a coherent packet.
+        let coherent = self.coherent(coherent);
         for (lane, ray) in rays.iter().enumerate() {
             if ray.is_valid() {
                 set_lane(&mut packet.0.ray, lane, ray);
@@ -280,9 +280,9 @@ impl Scene {
     pub fn occluded16(&self, rays: &[Ray], coherent: bool, blocked: &mut [bool]) {
         assert!(rays.len() <= PACKET_WIDTH && blocked.len() >= rays.len());
         // Debian's Embree 3.13.5 can loop forever in a coherent 16-wide occlusion query through
-        // an instance (seen on a shadow packet of two active lanes); the incoherent path does
-        // not, so scenes with instances trace their packets as incoherent.
-        let coherent = coherent && !self.has_instances();
+        // an instance (seen on a shadow packet of two active lanes) or in a compact and robust
+        // BVH; the incoherent path does not, so such scenes trace their packets as incoherent.
+        let coherent = self.coherent(coherent);
         let mut packet = Ray16::default();
         let mut valid = Valid16::default();
         for (lane, ray) in rays.iter().enumerate() {
@@ -330,7 +330,7 @@ impl Scene {
 
     /// Embree's raw 16-wide throughput on `rays` (consecutive groups of 16 as packets).
     pub fn raw_intersect16(&self, rays: &RawRays, coherent: bool) -> usize {
-        let mut args = IntersectArgs::new(coherent);
+        let mut args = IntersectArgs::new(self.coherent(coherent));
         let mut packet = RayHit16::default();
         let mut hits = 0;
         for (chunk, valid) in rays.packets.iter().zip(&rays.valid) {
@@ -364,7 +364,7 @@ impl Scene {
 
     /// Embree's raw 16-wide occlusion throughput on `rays`. Returns the number blocked.
     pub fn raw_occluded16(&self, rays: &RawRays, coherent: bool) -> usize {
-        let mut args = OccludedArgs::new(coherent);
+        let mut args = OccludedArgs::new(self.coherent(coherent));
         let mut packet = Ray16::default();
         let mut blocked = 0;
         for (chunk, valid) in rays.packets.iter().zip(&rays.valid) {

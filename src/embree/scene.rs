@@ -140,15 +140,21 @@ fn padded(mesh: Arc<TriangleMesh>) -> Arc<TriangleMesh> {
 
 /// How much time Embree's BVH build spends on the tree's quality (`RTCBuildQuality`): `high`
 /// builds slowest and traces fastest (spatial splits), `low` the reverse.
+///
+/// `medium` is the default (as it is Embree's): on every scene in `scenes/` it builds two to
+/// three times faster than `high` and traces as fast, with the same image; `high`'s spatial
+/// splits paid only on the 10M-triangle production mesh, 7% faster rendering for a build twice
+/// as long, so they pay for renders that take many times the build (README, "Memory and large
+/// meshes").
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, serde::Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum BvhQuality {
     /// Morton-code build: fastest, for scenes traced with few rays.
     Low,
-    /// Binned SAH build without spatial splits: less build memory than `high`.
-    Medium,
-    /// SAH build with spatial splits: fastest tracing (photondiff's default).
+    /// Binned SAH build without spatial splits (photondiff's default).
     #[default]
+    Medium,
+    /// SAH build with spatial splits: slowest build, fastest tracing on large meshes.
     High,
 }
 
@@ -169,6 +175,24 @@ pub struct BvhSettings {
     /// `RTC_SCENE_FLAG_ROBUST`: traversal without the optimisations that can miss hits on
     /// edges and vertices; somewhat slower.
     pub robust: bool,
+}
+
+impl std::fmt::Display for BvhSettings {
+    /// As the statistics print it: the quality, then the flags set (`medium, compact`).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let quality = match self.quality {
+            BvhQuality::Low => "low",
+            BvhQuality::Medium => "medium",
+            BvhQuality::High => "high",
+        };
+        f.write_str(quality)?;
+        for (set, name) in [(self.compact, "compact"), (self.robust, "robust")] {
+            if set {
+                write!(f, ", {name}")?;
+            }
+        }
+        Ok(())
+    }
 }
 
 impl SceneBuilder {
@@ -254,6 +278,11 @@ impl SceneBuilder {
             geometries: self.geometries,
             prototypes: Vec::new(),
             invalid_rays: AtomicU64::new(0),
+            // Debian's Embree 3.13.5 was seen to loop forever in coherent 16-wide occlusion
+            // queries through an instance (a shadow packet of two active lanes) and in every
+            // compact and robust scene (the canonical scene's first shadow packets); its
+            // incoherent path does not.
+            coherent_packets: !(settings.compact && settings.robust),
         };
         scene.raw = new_scene(&device, settings)?;
         // The BVH of each instanced mesh, made once: (the mesh, its committed scene).
@@ -407,6 +436,9 @@ pub struct Scene {
     /// The scenes of the instanced meshes (one per mesh), released after `raw`.
     prototypes: Vec<ffi::RTCScene>,
     pub(super) invalid_rays: AtomicU64,
+    /// Whether packets said to be coherent may be traced with Embree's coherent flag (not
+    /// through instances, nor in a compact and robust BVH: [`Scene::coherent`]).
+    coherent_packets: bool,
 }
 
 // SAFETY: a committed Embree scene is immutable and Embree documents rtcIntersect*/rtcOccluded* as
@@ -439,6 +471,13 @@ impl Scene {
     /// Whether any geometry is an instance.
     pub(super) fn has_instances(&self) -> bool {
         !self.prototypes.is_empty()
+    }
+
+    /// Whether a packet said to be `coherent` goes to Embree with its coherent flag: not where
+    /// Debian's Embree 3.13.5 can loop forever on it (through instances, and in a compact and
+    /// robust BVH), where the incoherent path gives the same answers.
+    pub(super) fn coherent(&self, coherent: bool) -> bool {
+        coherent && self.coherent_packets && !self.has_instances()
     }
 
     /// Number of rays rejected so far because Embree could not take them (answered as misses).

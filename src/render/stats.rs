@@ -91,6 +91,8 @@ pub struct MemoryStats {
     pub bvh_bytes: u64,
     /// The most Embree held at once during the build (the BVH and the builder's temporaries).
     pub bvh_build_peak_bytes: u64,
+    /// How Embree built the BVH (quality, compact, robust).
+    pub bvh: crate::embree::BvhSettings,
     /// The process's peak resident memory (`VmHWM`) at the end of the run.
     pub peak_resident_bytes: u64,
     /// `peak_resident_bytes / triangles`.
@@ -225,13 +227,14 @@ impl Stats {
             let mb = |b: u64| b as f64 / 1e6;
             out += &format!(
                 "  memory: peak resident {:.1} MB ({:.0} bytes/triangle over {} unique triangles, \
-                 {} placed); meshes {:.1} MB, Embree BVH {:.1} MB (build peak {:.1} MB)\n",
+                 {} placed); meshes {:.1} MB, Embree BVH {:.1} MB ({}; build peak {:.1} MB)\n",
                 mb(m.peak_resident_bytes),
                 m.peak_bytes_per_triangle,
                 m.triangles,
                 m.placed_triangles,
                 mb(m.mesh_bytes),
                 mb(m.bvh_bytes),
+                m.bvh,
                 mb(m.bvh_build_peak_bytes)
             );
         }
