@@ -373,3 +373,37 @@ fn geometry_bounds_hold_every_vertex_and_find_flat_geometries() {
     assert!(bounds[1].center.distance(DVec3::new(0.0, 0.0, 3.0)) < 1e-6);
     assert!((bounds[1].radius - 1.0).abs() < 1e-6);
 }
+
+#[test]
+fn the_build_reports_its_progress_in_equal_shares_per_bvh() {
+    let device = Device::new().unwrap();
+    let seen = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let log = seen.clone();
+    let mut builder = SceneBuilder::new(&device).progress(move |f| log.lock().unwrap().push(f));
+    // Two instanced meshes (each placed twice) and a mesh of the scene's own: three builds.
+    let ball = std::sync::Arc::new(shapes::sphere(DVec3::ZERO, 1.0, 512));
+    let small = std::sync::Arc::new(shapes::sphere(DVec3::ZERO, 1.0, 16));
+    for (mesh, x) in [(&ball, 0.0), (&ball, 3.0), (&small, 6.0), (&small, 9.0)] {
+        let to_world = glam::DAffine3::from_translation(DVec3::new(x, 0.0, 0.0));
+        builder.add_instance(mesh, to_world).unwrap();
+    }
+    builder
+        .add_mesh(shapes::sphere(DVec3::new(0.0, 5.0, 0.0), 1.0, 256))
+        .unwrap();
+    let scene = builder.commit().unwrap();
+    assert!(scene
+        .intersect(&Ray::new(DVec3::new(3.0, 0.0, -5.0), DVec3::Z))
+        .is_some());
+    let seen = seen.lock().unwrap();
+    assert!(seen.iter().all(|f| (0.0..=1.0).contains(f)), "{seen:?}");
+    // Each build ends on its share: a third, two thirds, the whole.
+    for end in [1.0 / 3.0, 2.0 / 3.0, 1.0] {
+        assert!(
+            seen.iter().any(|f| (f - end).abs() < 1e-12),
+            "{end} in {seen:?}"
+        );
+    }
+    assert_eq!(seen.last(), Some(&1.0));
+    // The 262,144-triangle ball's build reports its way through the first third, not only its end.
+    assert!(seen.iter().any(|&f| f > 0.0 && f < 1.0 / 3.0), "{seen:?}");
+}

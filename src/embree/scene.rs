@@ -163,7 +163,13 @@ pub struct SceneBuilder {
     device: Device,
     geometries: Vec<Geometry>,
     settings: BvhSettings,
+    /// Told the build's progress, from 0 to 1 ([`SceneBuilder::progress`]).
+    progress: Option<Box<BuildProgress>>,
 }
+
+/// What [`SceneBuilder::progress`] is told: the fraction of the build done, from any of
+/// Embree's build threads.
+pub type BuildProgress = dyn Fn(f64) + Send + Sync;
 
 /// How Embree builds the scene's BVH: the trade between build time, memory and tracing speed.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
@@ -202,12 +208,22 @@ impl SceneBuilder {
             device: device.clone(),
             geometries: Vec::new(),
             settings: BvhSettings::default(),
+            progress: None,
         }
     }
 
-    /// How the BVH is built (default: `high` quality, no flags).
+    /// How the BVH is built (default: `medium` quality, no flags).
     pub fn settings(mut self, settings: BvhSettings) -> Self {
         self.settings = settings;
+        self
+    }
+
+    /// Reports the build's progress to `report`: fractions from 0 to 1, from Embree's progress
+    /// monitor (called on its build threads, possibly at once), and 1 when the build is done.
+    /// A scene with instanced meshes builds one BVH per mesh and one over them: each takes an
+    /// equal share of the range.
+    pub fn progress(mut self, report: impl Fn(f64) + Send + Sync + 'static) -> Self {
+        self.progress = Some(Box::new(report));
         self
     }
 
@@ -270,6 +286,21 @@ impl SceneBuilder {
         let device = self.device.handle.clone();
         device.take_error()?;
         let settings = self.settings;
+        // One build per instanced mesh, and the scene's own.
+        let mut instanced: Vec<*const TriangleMesh> = self
+            .geometries
+            .iter()
+            .filter(|g| g.instance.is_some())
+            .map(|g| Arc::as_ptr(&g.mesh))
+            .collect();
+        instanced.sort_unstable();
+        instanced.dedup();
+        let builds = instanced.len() + 1;
+        let progress = self.progress;
+        let commit = |raw: ffi::RTCScene, done: usize| {
+            commit_reporting(raw, progress.as_deref(), done, builds);
+            device.take_error()
+        };
         // From here on the scene owns every raw scene made and releases them on drop, whatever
         // fails below.
         let mut scene = Scene {
@@ -299,9 +330,7 @@ impl SceneBuilder {
                     let p = new_scene(&device, settings)?;
                     scene.prototypes.push(p);
                     attach_triangles(&device, p, &g.mesh, 0)?;
-                    // SAFETY: `p` is a valid scene whose one geometry is committed.
-                    unsafe { ffi::rtcCommitScene(p) };
-                    device.take_error()?;
+                    commit(p, made.len())?;
                     made.push((key, p));
                     p
                 }
@@ -340,11 +369,60 @@ impl SceneBuilder {
                 ffi::rtcReleaseGeometry(geometry);
             }
         }
-        // SAFETY: `scene.raw` is a valid scene whose geometries are all committed.
-        unsafe { ffi::rtcCommitScene(scene.raw) };
-        device.take_error()?;
+        commit(scene.raw, made.len())?;
         Ok(scene)
     }
+}
+
+/// What Embree's progress monitor is handed during one build: the report, and the build's
+/// place among the `builds` a commit makes.
+struct Monitor<'a> {
+    report: &'a BuildProgress,
+    done: usize,
+    builds: usize,
+}
+
+/// Called by Embree on its build threads with the fraction `n` of one build done; answers
+/// true (go on). It must not unwind into C: a panicking report is caught and ignored.
+extern "C" fn progress_monitor(user_ptr: *mut std::ffi::c_void, n: f64) -> bool {
+    // SAFETY: `user_ptr` is the `Monitor` on `commit_reporting`'s stack, which unsets the
+    // monitor before that returns (Embree calls it only during the commit).
+    let monitor = unsafe { &*(user_ptr as *const Monitor) };
+    let fraction = (monitor.done as f64 + n.clamp(0.0, 1.0)) / monitor.builds as f64;
+    let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| (monitor.report)(fraction)));
+    true
+}
+
+/// Commits `raw` (build number `done` of `builds`), reporting its progress to `report`.
+fn commit_reporting(
+    raw: ffi::RTCScene,
+    report: Option<&BuildProgress>,
+    done: usize,
+    builds: usize,
+) {
+    let Some(report) = report else {
+        // SAFETY: `raw` is a valid scene whose geometries are all committed.
+        unsafe { ffi::rtcCommitScene(raw) };
+        return;
+    };
+    let monitor = Monitor {
+        report,
+        done,
+        builds,
+    };
+    // SAFETY: `raw` is a valid scene whose geometries are all committed; the monitor's user
+    // pointer is `monitor`, alive until after the monitor is unset below; the callback never
+    // unwinds.
+    unsafe {
+        ffi::rtcSetSceneProgressMonitorFunction(
+            raw,
+            Some(progress_monitor),
+            &monitor as *const Monitor as *mut std::ffi::c_void,
+        );
+        ffi::rtcCommitScene(raw);
+        ffi::rtcSetSceneProgressMonitorFunction(raw, None, std::ptr::null_mut());
+    }
+    report((done + 1) as f64 / builds as f64);
 }
 
 /// The error Embree reported, or `what` when it reported none.

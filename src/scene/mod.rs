@@ -180,6 +180,28 @@ impl Scene {
         device: &Device,
         settings: BvhSettings,
     ) -> Result<embree::Scene, EmbreeError> {
+        self.embree_builder(device, settings)?.commit()
+    }
+
+    /// [`Scene::build_embree_with`], telling `report` the build's progress, from 0 to 1
+    /// ([`embree::SceneBuilder::progress`]).
+    pub fn build_embree_reporting(
+        &self,
+        device: &Device,
+        settings: BvhSettings,
+        report: impl Fn(f64) + Send + Sync + 'static,
+    ) -> Result<embree::Scene, EmbreeError> {
+        self.embree_builder(device, settings)?
+            .progress(report)
+            .commit()
+    }
+
+    /// The scene's meshes and instances, ready for Embree to build.
+    fn embree_builder(
+        &self,
+        device: &Device,
+        settings: BvhSettings,
+    ) -> Result<embree::SceneBuilder, EmbreeError> {
         let mut builder = embree::SceneBuilder::new(device).settings(settings);
         for mesh in &self.meshes {
             match mesh.transform {
@@ -194,7 +216,7 @@ impl Scene {
                 other => other,
             })?;
         }
-        builder.commit()
+        Ok(builder)
     }
 
     /// What loading the scene's mesh files dropped or repaired, summed over the meshes.
