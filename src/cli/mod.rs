@@ -9,7 +9,31 @@ pub mod reference;
 pub mod render;
 pub mod report;
 
+use photondiff::embree::{self, BvhSettings, Device};
+use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
+
+/// Builds `scene`'s BVH (read from `path`) with `settings`, its progress a bar (`BVH`) when
+/// `progress`: a large mesh's build takes seconds to minutes.
+pub fn build_bvh(
+    scene: &Scene,
+    path: &Path,
+    device: &Device,
+    settings: BvhSettings,
+    progress: bool,
+) -> Result<embree::Scene, String> {
+    let bar = photondiff::util::progress::bar(progress, 1000, "BVH");
+    let report = bar.clone();
+    // Embree's threads report at once, not always in order: the bar only moves on.
+    let built = scene.build_embree_reporting(device, settings, move |f| {
+        let step = (f * 1000.0) as u64;
+        if step > report.position() {
+            report.set_position(step);
+        }
+    });
+    bar.finish_and_clear();
+    built.map_err(|e| format!("{}: {e}", path.display()))
+}
 
 /// The most worker threads `--threads` takes: far beyond any machine this runs on, and low
 /// enough that asking for a typo's worth (100000) is refused in one line instead of the

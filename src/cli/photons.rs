@@ -3,7 +3,7 @@
 
 use super::create_parent;
 use super::render::estimator_name;
-use photondiff::embree::Device;
+use photondiff::embree::{BvhSettings, Device};
 use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
 use photondiff::photons::trace::{PhotonOptions, TraceCounts};
@@ -89,9 +89,13 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     super::warn_about_scene(&args.scene, &scene);
     let hash = scene_hash(&args.scene)?;
     let device = Device::new().map_err(|e| e.to_string())?;
-    let embree = scene
-        .build_embree(&device)
-        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    let embree = super::build_bvh(
+        &scene,
+        &args.scene,
+        &device,
+        BvhSettings::default(),
+        !args.quiet,
+    )?;
     let options = PhotonOptions {
         global_photons: args.global_photons.unwrap_or(defaults.global_photons),
         caustic_photons: args.caustic_photons.unwrap_or(defaults.caustic_photons),

@@ -2,7 +2,7 @@
 //! light-traced; see `photondiff::reference::cache`), with its two halves and its noise.
 
 use super::create_parent;
-use photondiff::embree::Device;
+use photondiff::embree::{BvhSettings, Device};
 use photondiff::reference::cache::{make, merge, Reference, ReferenceSettings};
 use photondiff::reference::light_tracer::MAX_PATHS;
 use photondiff::reference::metrics::Regions;
@@ -171,9 +171,13 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;
     super::warn_about_scene(&args.scene, &scene);
     let device = Device::new().map_err(|e| e.to_string())?;
-    let embree = scene
-        .build_embree(&device)
-        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    let embree = super::build_bvh(
+        &scene,
+        &args.scene,
+        &device,
+        BvhSettings::default(),
+        !args.quiet,
+    )?;
     let hash = hex(scene_hash(&args.scene)?);
     if !args.merge.is_empty() {
         let (parts, meta) = read_parts(&args.merge, &hash)?;

@@ -310,21 +310,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         compact: args.bvh_compact,
         robust: args.bvh_robust,
     };
-    // A thousand steps: a large mesh's build takes seconds to minutes.
-    let bar = photondiff::util::progress::bar(!args.quiet, 1000, "BVH");
-    let report = bar.clone();
-    let embree = stats
-        .time("build BVH", || {
-            // Embree's threads report at once, not always in order: the bar only moves on.
-            scene.build_embree_reporting(&device, bvh, move |f| {
-                let step = (f * 1000.0) as u64;
-                if step > report.position() {
-                    report.set_position(step);
-                }
-            })
-        })
-        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
-    bar.finish_and_clear();
+    let embree = stats.time("build BVH", || {
+        super::build_bvh(&scene, &args.scene, &device, bvh, !args.quiet)
+    })?;
     stats.memory.triangles = scene.triangle_count();
     stats.memory.placed_triangles = scene.placed_triangle_count();
     stats.memory.mesh_bytes = scene.mesh_bytes();
