@@ -186,12 +186,13 @@ pub struct BvhSettings {
 impl std::fmt::Display for BvhSettings {
     /// As the statistics print it: the quality, then the flags set (`medium, compact`).
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let quality = match self.quality {
-            BvhQuality::Low => "low",
-            BvhQuality::Medium => "medium",
-            BvhQuality::High => "high",
-        };
-        f.write_str(quality)?;
+        // The name `--bvh-quality` takes.
+        use clap::ValueEnum;
+        let quality = self
+            .quality
+            .to_possible_value()
+            .expect("no variant is skipped");
+        f.write_str(quality.get_name())?;
         for (set, name) in [(self.compact, "compact"), (self.robust, "robust")] {
             if set {
                 write!(f, ", {name}")?;
@@ -309,11 +310,8 @@ impl SceneBuilder {
             geometries: self.geometries,
             prototypes: Vec::new(),
             invalid_rays: AtomicU64::new(0),
-            // Debian's Embree 3.13.5 was seen to loop forever in coherent 16-wide occlusion
-            // queries through an instance (a shadow packet of two active lanes) and in every
-            // compact and robust scene (the canonical scene's first shadow packets); its
-            // incoherent path does not.
-            coherent_packets: !(settings.compact && settings.robust),
+            // Set once the instances are known, below.
+            coherent_packets: false,
         };
         scene.raw = new_scene(&device, settings)?;
         // The BVH of each instanced mesh, made once: (the mesh, its committed scene).
@@ -370,6 +368,11 @@ impl SceneBuilder {
             }
         }
         commit(scene.raw, made.len())?;
+        // Debian's Embree 3.13.5 was seen to loop forever in coherent 16-wide occlusion queries
+        // through an instance (a shadow packet of two active lanes) and in every compact and
+        // robust scene (the canonical scene's first shadow packets); its incoherent path does
+        // not.
+        scene.coherent_packets = made.is_empty() && !(settings.compact && settings.robust);
         Ok(scene)
     }
 }
@@ -546,16 +549,11 @@ impl Scene {
         self.geometries.len()
     }
 
-    /// Whether any geometry is an instance.
-    pub(super) fn has_instances(&self) -> bool {
-        !self.prototypes.is_empty()
-    }
-
     /// Whether a packet said to be `coherent` goes to Embree with its coherent flag: not where
     /// Debian's Embree 3.13.5 can loop forever on it (through instances, and in a compact and
     /// robust BVH), where the incoherent path gives the same answers.
     pub(super) fn coherent(&self, coherent: bool) -> bool {
-        coherent && self.coherent_packets && !self.has_instances()
+        coherent && self.coherent_packets
     }
 
     /// Number of rays rejected so far because Embree could not take them (answered as misses).
