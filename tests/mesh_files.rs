@@ -392,3 +392,50 @@ fn the_command_line_warns_once_counts_repairs_and_info_describes_files() {
         );
     }
 }
+
+/// A scene's mesh files report their reading: the total is their sizes (a mesh shape's file and
+/// an instanced mesh's, once however many times it is placed), the bytes read never go back
+/// nor past it, a file of several megabytes reports on the way, and the last report is the
+/// whole.
+#[test]
+fn a_scene_reports_the_bytes_of_its_mesh_files_as_it_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let big = photondiff::scene::shapes::sphere(glam::DVec3::ZERO, 0.3, 1024);
+    photondiff::scene::mesh_file::ply::write::write_binary(
+        &big,
+        std::io::BufWriter::new(std::fs::File::create(dir.path().join("big.ply")).unwrap()),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("small.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    let text = "[camera]\neye = [0, 1, 5]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n\
+        width = 8\nheight = 8\n\n[materials.grey]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\n\
+        [[lights]]\ntype = \"point\"\nposition = [0, 4, 0]\nintensity = [1, 1, 1]\n\n\
+        [[shapes]]\ntype = \"mesh\"\nfile = \"big.ply\"\nmaterial = \"grey\"\n\n\
+        [meshes.small]\nfile = \"small.obj\"\n\n\
+        [[instances]]\nmesh = \"small\"\nmaterial = \"grey\"\ntranslate = [2, 0, 0]\n\n\
+        [[instances]]\nmesh = \"small\"\nmaterial = \"grey\"\ntranslate = [-2, 0, 0]\n";
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    let size = |name: &str| std::fs::metadata(dir.path().join(name)).unwrap().len();
+    let total = size("big.ply") + size("small.obj");
+    assert!(size("big.ply") > 2 * photondiff::util::input::REPORT_EVERY);
+    let seen = std::cell::RefCell::new(Vec::new());
+    let scene = photondiff::scene::file::load_scene_reporting(&path, |done, all| {
+        seen.borrow_mut().push((done, all))
+    })
+    .unwrap();
+    assert_eq!(scene.meshes.len(), 3);
+    let seen = seen.into_inner();
+    assert!(seen.iter().all(|&(_, all)| all == total), "{seen:?}");
+    assert!(seen.windows(2).all(|w| w[0].0 <= w[1].0), "{seen:?}");
+    assert!(
+        seen.iter()
+            .any(|&(done, _)| done > 0 && done < size("big.ply")),
+        "{seen:?}"
+    );
+    assert_eq!(seen.last(), Some(&(total, total)));
+}

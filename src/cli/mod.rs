@@ -13,6 +13,22 @@ use photondiff::embree::{self, BvhSettings, Device};
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
 
+/// Loads the scene at `path` (its mesh files' reading a bar, `load`, when `progress`: a large
+/// mesh takes seconds to read) and prints its warnings.
+pub fn load_scene(path: &Path, progress: bool) -> Result<Scene, String> {
+    let bar = photondiff::util::progress::bar(progress, 1, "load");
+    let scene = photondiff::scene::file::load_scene_reporting(path, |done, total| {
+        if bar.length() != Some(total) {
+            bar.set_length(total);
+        }
+        bar.set_position(done);
+    });
+    bar.finish_and_clear();
+    let scene = scene.map_err(|e| e.to_string())?;
+    warn_about_scene(path, &scene);
+    Ok(scene)
+}
+
 /// Builds `scene`'s BVH (read from `path`) with `settings`, its progress a bar (`BVH`) when
 /// `progress`: a large mesh's build takes seconds to minutes.
 pub fn build_bvh(

@@ -10,7 +10,6 @@ use photondiff::photons::trace::{PhotonOptions, TraceCounts};
 use photondiff::render::passes::RenderDefaults;
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
-use photondiff::scene::file::load_scene;
 use photondiff::scene::hash::scene_hash;
 use std::path::PathBuf;
 
@@ -85,8 +84,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
             super::shown(global_aim)
         ));
     }
-    let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;
-    super::warn_about_scene(&args.scene, &scene);
+    let scene = super::load_scene(&args.scene, !args.quiet)?;
     let hash = scene_hash(&args.scene)?;
     let device = Device::new().map_err(|e| e.to_string())?;
     let embree = super::build_bvh(

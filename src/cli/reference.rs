@@ -8,7 +8,6 @@ use photondiff::reference::light_tracer::MAX_PATHS;
 use photondiff::reference::metrics::Regions;
 use photondiff::render::film::Film;
 use photondiff::render::part::{read_part, Part};
-use photondiff::scene::file::load_scene;
 use photondiff::scene::hash::{hex, scene_hash};
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -168,8 +167,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
             ))
         }
     };
-    let scene = load_scene(&args.scene).map_err(|e| e.to_string())?;
-    super::warn_about_scene(&args.scene, &scene);
+    let scene = super::load_scene(&args.scene, !args.quiet)?;
     let device = Device::new().map_err(|e| e.to_string())?;
     let embree = super::build_bvh(
         &scene,

@@ -15,7 +15,6 @@ use photondiff::render::stats::Stats;
 use photondiff::render::{
     load_photon_maps, Progressive, RenderOptions, StopRules, TileSplit, Window,
 };
-use photondiff::scene::file::load_scene;
 use photondiff::scene::hash::{hex, scene_hash};
 use std::path::{Path, PathBuf};
 
@@ -277,10 +276,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         embree: photondiff::embree::BACKEND.to_string(),
         ..Stats::default()
     };
-    let scene = stats
-        .time("load scene", || load_scene(&args.scene))
-        .map_err(|e| e.to_string())?;
-    super::warn_about_scene(&args.scene, &scene);
+    let scene = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
     let hash = scene_hash(&args.scene)?;
     let (width, height) = (scene.camera.width, scene.camera.height);
     // Parsed here rather than by clap, so that a bad split is a one-line error with status 1.

@@ -10,7 +10,7 @@ use crate::scene::descriptions::{
     ShapeDesc, SphereShape, SpotLight, Vec3,
 };
 use crate::scene::instances::{InstanceDesc, MeshDesc};
-use crate::scene::mesh_file::{load_mesh_with_report, MeshReport};
+use crate::scene::mesh_file::{load_mesh_reporting, LoadedMesh, MeshReport};
 use crate::scene::shapes;
 use crate::scene::{Light, Material, Scene, SceneMesh};
 use glam::DVec3;
@@ -66,6 +66,12 @@ pub const MAX_PIXELS: u64 = 1 << 27;
 
 /// Reads and checks the scene file at `path`; mesh paths are relative to its folder.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
+    load_scene_reporting(path, |_, _| {})
+}
+
+/// [`load_scene`], telling `progress` the bytes of mesh files read so far and their total,
+/// every few megabytes and after each file: large meshes take seconds to read.
+pub fn load_scene_reporting(path: &Path, progress: impl Fn(u64, u64)) -> Result<Scene, SceneError> {
     let err = |message: String| SceneError {
         file: path.to_path_buf(),
         message,
@@ -73,13 +79,57 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     let text =
         crate::util::input::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    parse_scene(&text, base).map_err(err)
+    parse(&text)
+        .and_then(|file| build(file, base, &progress))
+        .map_err(err)
 }
 
 /// Parses scene text; `base` is the folder mesh paths are relative to.
 pub fn parse_scene(text: &str, base: &Path) -> Result<Scene, String> {
-    let file: SceneFile = toml::from_str(text).map_err(|e| e.to_string().trim().to_string())?;
-    build(file, base)
+    build(parse(text)?, base, &|_, _| {})
+}
+
+fn parse(text: &str) -> Result<SceneFile, String> {
+    toml::from_str(text).map_err(|e| e.to_string().trim().to_string())
+}
+
+/// Tells `progress` how much of the mesh files `build` reads it has read: the files of the
+/// mesh shapes and of the instanced meshes (each once), by their sizes on disk.
+struct MeshBytes<'a> {
+    progress: &'a dyn Fn(u64, u64),
+    total: u64,
+    done: std::cell::Cell<u64>,
+}
+
+impl<'a> MeshBytes<'a> {
+    fn new(file: &SceneFile, base: &Path, progress: &'a dyn Fn(u64, u64)) -> Self {
+        let shapes = file.shapes.iter().filter_map(|s| match s {
+            ShapeDesc::Mesh(MeshShape { file, .. }) => Some(file),
+            _ => None,
+        });
+        let instanced: std::collections::BTreeSet<&str> =
+            file.instances.iter().map(|i| i.mesh.as_str()).collect();
+        let instanced = instanced
+            .into_iter()
+            .filter_map(|name| file.meshes.get(name).map(|m| &m.file));
+        // A file that cannot be read counts nothing here; its loader says why.
+        let size = |f: &PathBuf| std::fs::metadata(base.join(f)).map_or(0, |m| m.len());
+        MeshBytes {
+            progress,
+            total: shapes.chain(instanced).map(size).sum(),
+            done: std::cell::Cell::new(0),
+        }
+    }
+
+    /// Loads the mesh at `path` (its report as it reads).
+    fn load(&self, path: &Path) -> Result<LoadedMesh, String> {
+        let before = self.done.get();
+        let loaded = load_mesh_reporting(path, &|read| (self.progress)(before + read, self.total))?;
+        let size = std::fs::metadata(path).map_or(0, |m| m.len());
+        self.done.set(before + size);
+        (self.progress)(self.done.get(), self.total);
+        Ok(loaded)
+    }
 }
 
 fn vec3(field: &str, v: Vec3) -> Result<DVec3, String> {
@@ -198,7 +248,8 @@ fn parallelogram(field: &str, corner: Vec3, u: Vec3, v: Vec3) -> Result<[DVec3; 
     Ok([c, u, v])
 }
 
-fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
+fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Scene, String> {
+    let mesh_bytes = MeshBytes::new(&file, base, progress);
     let c = &file.camera;
     let fov = number("camera.fov_y", c.fov_y)?;
     if !(fov > 0.0 && fov < 180.0) {
@@ -285,8 +336,9 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
         let (kind, mut mesh, material) = match shape {
             ShapeDesc::Mesh(MeshShape { file, material: m }) => {
                 let path = base.join(file);
-                let loaded =
-                    load_mesh_with_report(&path).map_err(|e| format!("{field}.file: {e}"))?;
+                let loaded = mesh_bytes
+                    .load(&path)
+                    .map_err(|e| format!("{field}.file: {e}"))?;
                 report = loaded.report;
                 let kind = format!("mesh {}", file.display());
                 (kind, loaded.mesh, material(&field, m)?)
@@ -359,7 +411,8 @@ fn build(file: SceneFile, base: &Path) -> Result<Scene, String> {
             Some((mesh, bounds)) => (mesh.clone(), *bounds),
             None => {
                 let path = base.join(&desc.file);
-                let mut m = load_mesh_with_report(&path)
+                let mut m = mesh_bytes
+                    .load(&path)
                     .map_err(|e| format!("meshes.{}.file: {e}", inst.mesh))?;
                 report = m.report;
                 m.mesh.reserve_padding();

@@ -21,6 +21,42 @@ fn refuse(path: &Path) -> std::io::Result<()> {
     Err(Error::new(ErrorKind::InvalidInput, why))
 }
 
+/// Bytes a [`Counted`] reader reads between two reports.
+pub const REPORT_EVERY: u64 = 1 << 22;
+
+/// A reader that tells `report` how many bytes it has read so far, every [`REPORT_EVERY`]:
+/// the progress of a large file's load.
+pub struct Counted<'a, R> {
+    inner: R,
+    read: u64,
+    reported: u64,
+    report: &'a dyn Fn(u64),
+}
+
+impl<'a, R> Counted<'a, R> {
+    /// `inner`, counted.
+    pub fn new(inner: R, report: &'a dyn Fn(u64)) -> Self {
+        Counted {
+            inner,
+            read: 0,
+            reported: 0,
+            report,
+        }
+    }
+}
+
+impl<R: Read> Read for Counted<'_, R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        self.read += n as u64;
+        if self.read - self.reported >= REPORT_EVERY {
+            self.reported = self.read;
+            (self.report)(self.read);
+        }
+        Ok(n)
+    }
+}
+
 /// [`File::open`] for an input file: refuses folders and devices.
 pub fn open(path: &Path) -> std::io::Result<File> {
     refuse(path)?;

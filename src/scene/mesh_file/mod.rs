@@ -98,14 +98,20 @@ pub fn load_mesh(path: &Path) -> Result<TriangleMesh, String> {
 
 /// Loads the mesh in `path` and reports what was dropped or repaired.
 pub fn load_mesh_with_report(path: &Path) -> Result<LoadedMesh, String> {
+    load_mesh_reporting(path, &|_| {})
+}
+
+/// [`load_mesh_with_report`], telling `read` the bytes of the file read so far, every
+/// [`crate::util::input::REPORT_EVERY`].
+pub fn load_mesh_reporting(path: &Path, read: &dyn Fn(u64)) -> Result<LoadedMesh, String> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
     let in_file = |e: String| format!("{}: {e}", path.display());
     let (mut mesh, mut report) = match ext.as_deref() {
-        Some("obj") => obj::load(path),
-        Some("ply") => ply::load(path),
+        Some("obj") => obj::load(path, read),
+        Some("ply") => ply::load(path, read),
         _ => Err("unsupported mesh format (expected a .obj or .ply file)".to_string()),
     }
     .map_err(in_file)?;

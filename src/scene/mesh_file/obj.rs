@@ -13,9 +13,10 @@ use std::collections::HashMap;
 use std::io::BufRead;
 use std::path::Path;
 
-/// Loads the OBJ file at `path`.
-pub fn load(path: &Path) -> Result<(TriangleMesh, MeshReport), String> {
+/// Loads the OBJ file at `path`, telling `read` the bytes read so far every few megabytes.
+pub fn load(path: &Path, read: &dyn Fn(u64)) -> Result<(TriangleMesh, MeshReport), String> {
     let file = crate::util::input::open(path).map_err(|e| format!("cannot read OBJ: {e}"))?;
+    let file = crate::util::input::Counted::new(file, read);
     parse(std::io::BufReader::with_capacity(1 << 16, file))
 }
 

@@ -16,13 +16,14 @@ use crate::embree::TriangleMesh;
 use header::{Element, Format, Header};
 use std::path::Path;
 
-/// Loads the PLY file at `path`.
-pub fn load(path: &Path) -> Result<(TriangleMesh, MeshReport), String> {
+/// Loads the PLY file at `path`, telling `read` the bytes read so far every few megabytes.
+pub fn load(path: &Path, read: &dyn Fn(u64)) -> Result<(TriangleMesh, MeshReport), String> {
     let file = crate::util::input::open(path).map_err(|e| format!("cannot read PLY: {e}"))?;
     let file_size = file
         .metadata()
         .map_err(|e| format!("cannot read PLY: {e}"))?
         .len();
+    let file = crate::util::input::Counted::new(file, read);
     let mut reader = std::io::BufReader::with_capacity(1 << 16, file);
     let header = header::read(&mut reader)?;
     let data_size = file_size.saturating_sub(header.length);
