@@ -3,7 +3,7 @@
 
 use super::create_parent;
 use super::render::estimator_name;
-use photondiff::embree::{BvhSettings, Device};
+use photondiff::embree::BvhSettings;
 use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
 use photondiff::photons::trace::{PhotonOptions, TraceCounts};
@@ -86,14 +86,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     }
     let scene = super::load_scene(&args.scene, !args.quiet)?;
     let hash = scene_hash(&args.scene)?;
-    let device = Device::new().map_err(|e| e.to_string())?;
-    let embree = super::build_bvh(
-        &scene,
-        &args.scene,
-        &device,
-        BvhSettings::default(),
-        !args.quiet,
-    )?;
+    let (_, embree) = super::build_bvh(&scene, &args.scene, BvhSettings::default(), !args.quiet)?;
     let options = PhotonOptions {
         global_photons: args.global_photons.unwrap_or(defaults.global_photons),
         caustic_photons: args.caustic_photons.unwrap_or(defaults.caustic_photons),

@@ -2,7 +2,7 @@
 //! light-traced; see `photondiff::reference::cache`), with its two halves and its noise.
 
 use super::create_parent;
-use photondiff::embree::{BvhSettings, Device};
+use photondiff::embree::BvhSettings;
 use photondiff::reference::cache::{make, merge, Reference, ReferenceSettings};
 use photondiff::reference::light_tracer::MAX_PATHS;
 use photondiff::reference::metrics::Regions;
@@ -168,14 +168,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         }
     };
     let scene = super::load_scene(&args.scene, !args.quiet)?;
-    let device = Device::new().map_err(|e| e.to_string())?;
-    let embree = super::build_bvh(
-        &scene,
-        &args.scene,
-        &device,
-        BvhSettings::default(),
-        !args.quiet,
-    )?;
+    let (_, embree) = super::build_bvh(&scene, &args.scene, BvhSettings::default(), !args.quiet)?;
     let hash = hex(scene_hash(&args.scene)?);
     if !args.merge.is_empty() {
         let (parts, meta) = read_parts(&args.merge, &hash)?;

@@ -1,7 +1,7 @@
 //! `photondiff render`: a scene file to an EXR, a PNG preview and statistics.
 
 use super::create_parent;
-use photondiff::embree::{BvhQuality, BvhSettings, Device};
+use photondiff::embree::{BvhQuality, BvhSettings};
 use photondiff::estimate::final_gather::{MAX_GATHER_RAYS, MAX_NEAR_REACH, NEAR_REACH};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::map::PathClass;
@@ -300,14 +300,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         eprintln!("photondiff: warning: {}: {warning}", args.scene.display());
     }
     stats.mesh_repairs = scene.mesh_report();
-    let device = Device::new().map_err(|e| e.to_string())?;
     let bvh = BvhSettings {
         quality: args.bvh_quality,
         compact: args.bvh_compact,
         robust: args.bvh_robust,
     };
-    let embree = stats.time("build BVH", || {
-        super::build_bvh(&scene, &args.scene, &device, bvh, !args.quiet)
+    let (device, embree) = stats.time("build BVH", || {
+        super::build_bvh(&scene, &args.scene, bvh, !args.quiet)
     })?;
     stats.memory.triangles = scene.triangle_count();
     stats.memory.placed_triangles = scene.placed_triangle_count();
