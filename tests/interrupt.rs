@@ -6,7 +6,7 @@
 use photondiff::render::film::Film;
 use std::path::Path;
 use std::process::{Child, Command, ExitStatus, Stdio};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 mod common;
 use common::SMALL_SCENE as SCENE;
@@ -48,17 +48,8 @@ fn interrupt(child: &Child, signal: &str) {
 
 /// Waits at most a minute; kills the process (ours) and fails if it has not ended by then.
 fn wait(child: &mut Child) -> ExitStatus {
-    let start = Instant::now();
-    loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            return status;
-        }
-        if start.elapsed() > Duration::from_secs(60) {
-            child.kill().unwrap();
-            panic!("the render did not stop within a minute of Ctrl-C");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    common::wait_at_most(child, Duration::from_secs(60))
+        .expect("the render did not stop within a minute of Ctrl-C")
 }
 
 /// Starts a render and interrupts it `times` times once it has run `after`; retries with a

@@ -105,18 +105,22 @@ fn statistics_account_for_meshes_and_the_bvh_and_bvh_settings_keep_the_hits() {
     assert!(get(&compact, "bvh_bytes") < 0.75 * get(&high, "bvh_bytes"));
     assert!(get(&compact, "bvh_build_peak_bytes") < get(&high, "bvh_build_peak_bytes"));
     // ...and every BVH finds the same hits: the same image.
-    let mean: f64 = high_pixels.iter().map(|p| p.element_sum()).sum::<f64>();
-    for (name, pixels) in [("compact", &compact_pixels), ("default", &default_pixels)] {
-        let diff: f64 = high_pixels
-            .iter()
-            .zip(pixels)
-            .map(|(a, b)| (*a - *b).abs().element_sum())
-            .sum();
-        assert!(
-            diff <= 1e-6 * mean,
-            "{name}: images differ by {diff} (sum {mean})"
-        );
-    }
+    assert_same_image(&high_pixels, &compact_pixels, "compact");
+    assert_same_image(&high_pixels, &default_pixels, "default");
+}
+
+/// `pixels` (named `name`) are `reference`'s to a millionth of its total.
+fn assert_same_image(reference: &[glam::DVec3], pixels: &[glam::DVec3], name: &str) {
+    let total: f64 = reference.iter().map(|p| p.element_sum()).sum::<f64>();
+    let diff: f64 = reference
+        .iter()
+        .zip(pixels)
+        .map(|(a, b)| (*a - *b).abs().element_sum())
+        .sum();
+    assert!(
+        diff <= 1e-6 * total,
+        "{name}: images differ by {diff} (sum {total})"
+    );
 }
 
 /// A compact and robust BVH renders, and as the robust one alone does. Debian's Embree 3.13.5
@@ -138,30 +142,13 @@ fn a_compact_and_robust_bvh_renders_as_the_robust_one_does() {
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    let start = std::time::Instant::now();
-    let status = loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            break status;
-        }
-        if start.elapsed() > std::time::Duration::from_secs(120) {
-            // Only the process this test started, by its handle.
-            child.kill().unwrap();
-            child.wait().unwrap();
-            panic!("a compact and robust BVH: the render did not finish in two minutes");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    };
+    let status = common::wait_at_most(&mut child, std::time::Duration::from_secs(120))
+        .expect("a compact and robust BVH: the render did not finish in two minutes");
     assert!(status.success());
     let compact = photondiff::render::part::read_part(&exr)
         .unwrap()
         .film
         .pixels;
     let (_, robust) = render(&path, "robust", &["--bvh-robust"]);
-    let mean: f64 = robust.iter().map(|p| p.element_sum()).sum::<f64>();
-    let diff: f64 = robust
-        .iter()
-        .zip(&compact)
-        .map(|(a, b)| (*a - *b).abs().element_sum())
-        .sum();
-    assert!(diff <= 1e-6 * mean, "images differ by {diff} (sum {mean})");
+    assert_same_image(&robust, &compact, "compact and robust");
 }

@@ -123,3 +123,24 @@ radius = 0.5
 segments = 32
 material = "glass"
 "#;
+
+/// Waits for `child` (a process the test started) at most `limit`: its exit status, or `None`
+/// once it has been killed (by its handle, nothing else) for running past the limit, so that a
+/// hang fails the test instead of holding the whole suite.
+pub fn wait_at_most(
+    child: &mut std::process::Child,
+    limit: std::time::Duration,
+) -> Option<std::process::ExitStatus> {
+    let start = std::time::Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return Some(status);
+        }
+        if start.elapsed() > limit {
+            child.kill().unwrap();
+            child.wait().unwrap();
+            return None;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
