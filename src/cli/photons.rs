@@ -86,7 +86,12 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     }
     let scene = super::load_scene(&args.scene, !args.quiet)?;
     let hash = scene_hash(&args.scene)?;
-    let (_, embree) = super::build_bvh(&scene, &args.scene, BvhSettings::default(), !args.quiet)?;
+    let (_, embree) = super::build_bvh(
+        &scene,
+        &args.scene,
+        BvhSettings::for_triangles(scene.triangle_count()),
+        !args.quiet,
+    )?;
     let options = PhotonOptions {
         global_photons: args.global_photons.unwrap_or(defaults.global_photons),
         caustic_photons: args.caustic_photons.unwrap_or(defaults.caustic_photons),

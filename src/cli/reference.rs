@@ -168,7 +168,12 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         }
     };
     let scene = super::load_scene(&args.scene, !args.quiet)?;
-    let (_, embree) = super::build_bvh(&scene, &args.scene, BvhSettings::default(), !args.quiet)?;
+    let (_, embree) = super::build_bvh(
+        &scene,
+        &args.scene,
+        BvhSettings::for_triangles(scene.triangle_count()),
+        !args.quiet,
+    )?;
     let hash = hex(scene_hash(&args.scene)?);
     if !args.merge.is_empty() {
         let (parts, meta) = read_parts(&args.merge, &hash)?;

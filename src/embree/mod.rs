@@ -42,7 +42,7 @@ pub use hit::Hit;
 pub use mesh::{TriangleMesh, MAX_COORDINATE};
 pub use query::RawRays;
 pub use ray::Ray;
-pub use scene::{BvhQuality, BvhSettings, Scene, SceneBuilder};
+pub use scene::{BvhQuality, BvhSettings, Scene, SceneBuilder, COMPACT_FROM_TRIANGLES};
 
 /// Width of the ray packets traced by [`Scene::intersect16`] and [`Scene::occluded16`].
 pub const PACKET_WIDTH: usize = 16;

@@ -183,6 +183,25 @@ pub struct BvhSettings {
     pub robust: bool,
 }
 
+/// From how many unique triangles a scene's BVH is compact unless told otherwise
+/// ([`BvhSettings::for_triangles`]). Embree's ordinary BVH peaks at about 120 bytes a triangle
+/// during its build (its leaves hold copies of the vertices, and its build references every
+/// triangle once more), the compact one at about 55 (its leaves hold indices): at 10^8
+/// triangles that is 12 GB against 6 GB. On a 10M-triangle mesh the compact BVH builds
+/// faster and traces 10-30% slower, so a single render takes about as long either way.
+pub const COMPACT_FROM_TRIANGLES: u64 = 4_000_000;
+
+impl BvhSettings {
+    /// The default settings for a scene of `triangles` unique triangles: `medium` quality,
+    /// compact from [`COMPACT_FROM_TRIANGLES`] on, not robust.
+    pub fn for_triangles(triangles: u64) -> Self {
+        BvhSettings {
+            compact: triangles >= COMPACT_FROM_TRIANGLES,
+            ..BvhSettings::default()
+        }
+    }
+}
+
 impl std::fmt::Display for BvhSettings {
     /// As the statistics print it: the quality, then the flags set (`medium, compact`).
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {

@@ -169,9 +169,11 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Builds the Embree scene: every mesh in order, so geometry id `i` is `self.meshes[i]`.
+    /// Builds the Embree scene: every mesh in order, so geometry id `i` is `self.meshes[i]`;
+    /// the BVH's settings are the default for the scene's size
+    /// ([`BvhSettings::for_triangles`]).
     pub fn build_embree(&self, device: &Device) -> Result<embree::Scene, EmbreeError> {
-        self.build_embree_with(device, BvhSettings::default())
+        self.build_embree_with(device, BvhSettings::for_triangles(self.triangle_count()))
     }
 
     /// [`Scene::build_embree`] with the BVH's settings (quality, compact, robust).
