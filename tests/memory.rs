@@ -186,3 +186,46 @@ fn a_ten_million_triangle_mesh_takes_at_most_100_bytes_a_triangle_at_peak() {
         "{ordinary} against {auto}"
     );
 }
+
+/// `photons` and `reference` take `render`'s BVH options, and what they trace does not depend
+/// on them: the same photon maps to the byte, the same reference to the bit.
+#[test]
+fn photons_and_reference_take_the_bvh_options_and_trace_the_same() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = scene(dir.path());
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+            .args(args)
+            .arg(&path)
+            .arg("-q")
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let file = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
+    let options = ["--bvh-quality", "high", "--bvh-compact"];
+    let (plain, other) = (file("plain.pdm"), file("other.pdm"));
+    run(&["photons", "-o", &plain]);
+    run(&[&["photons", "-o", &other][..], &options].concat());
+    assert!(std::fs::read(&plain).unwrap() == std::fs::read(&other).unwrap());
+    let paths = ["--light-paths", "131072", "--caustic-paths", "131072"];
+    let (plain, other) = (file("plain.exr"), file("other.exr"));
+    run(&[&["reference", "-o", &plain][..], &paths].concat());
+    run(&[&["reference", "-o", &other][..], &paths, &options].concat());
+    let pixels = |f: &str| {
+        photondiff::render::part::read_part(Path::new(f))
+            .unwrap()
+            .film
+            .pixels
+    };
+    let (a, b) = (pixels(&plain), pixels(&other));
+    assert!(
+        a.iter().any(|p| p.x > 0.0),
+        "a black reference proves nothing"
+    );
+    assert!(a == b, "the references differ");
+}

@@ -1,5 +1,6 @@
 //! The subcommands of the command line, one file each, and what they share.
 
+pub mod bvh;
 pub mod compare;
 pub mod info;
 pub mod merge;
@@ -9,7 +10,6 @@ pub mod reference;
 pub mod render;
 pub mod report;
 
-use photondiff::embree::{self, BvhSettings, Device};
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -27,29 +27,6 @@ pub fn load_scene(path: &Path, progress: bool) -> Result<Scene, String> {
     let scene = scene.map_err(|e| e.to_string())?;
     warn_about_scene(path, &scene);
     Ok(scene)
-}
-
-/// Builds `scene`'s BVH (read from `path`) with `settings` on a new Embree device, its
-/// progress a bar (`BVH`) when `progress`: a large mesh's build takes seconds to minutes.
-pub fn build_bvh(
-    scene: &Scene,
-    path: &Path,
-    settings: BvhSettings,
-    progress: bool,
-) -> Result<(Device, embree::Scene), String> {
-    let device = Device::new().map_err(|e| e.to_string())?;
-    let bar = photondiff::util::progress::bar(progress, 1000, "BVH");
-    let report = bar.clone();
-    // Embree's threads report at once, not always in order: the bar only moves on.
-    let built = scene.build_embree_reporting(&device, settings, move |f| {
-        let step = (f * 1000.0) as u64;
-        if step > report.position() {
-            report.set_position(step);
-        }
-    });
-    bar.finish_and_clear();
-    let built = built.map_err(|e| format!("{}: {e}", path.display()))?;
-    Ok((device, built))
 }
 
 /// The most worker threads `--threads` takes: far beyond any machine this runs on, and low

@@ -3,7 +3,6 @@
 
 use super::create_parent;
 use super::render::estimator_name;
-use photondiff::embree::BvhSettings;
 use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
 use photondiff::photons::trace::{PhotonOptions, TraceCounts};
@@ -52,6 +51,8 @@ pub struct PhotonsArgs {
     /// Worker threads (0 = one per core; at most 1024); the maps are identical for any count.
     #[arg(long, value_name = "N", default_value_t = 0)]
     threads: usize,
+    #[command(flatten)]
+    bvh: super::bvh::BvhArgs,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
@@ -86,10 +87,10 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     }
     let scene = super::load_scene(&args.scene, !args.quiet)?;
     let hash = scene_hash(&args.scene)?;
-    let (_, embree) = super::build_bvh(
+    let (_, embree) = super::bvh::build_bvh(
         &scene,
         &args.scene,
-        BvhSettings::for_triangles(scene.triangle_count()),
+        args.bvh.settings(scene.triangle_count()),
         !args.quiet,
     )?;
     let options = PhotonOptions {

@@ -2,7 +2,6 @@
 //! light-traced; see `photondiff::reference::cache`), with its two halves and its noise.
 
 use super::create_parent;
-use photondiff::embree::BvhSettings;
 use photondiff::reference::cache::{make, merge, Reference, ReferenceSettings};
 use photondiff::reference::light_tracer::MAX_PATHS;
 use photondiff::reference::metrics::Regions;
@@ -49,6 +48,8 @@ pub struct ReferenceArgs {
     /// beside it), which must have been made with the same settings and different seeds.
     #[arg(long, value_name = "PART.exr", num_args = 1..)]
     merge: Vec<PathBuf>,
+    #[command(flatten)]
+    bvh: super::bvh::BvhArgs,
     /// No stage messages and no progress (standard output still reports the noise).
     #[arg(short, long)]
     quiet: bool,
@@ -168,10 +169,10 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         }
     };
     let scene = super::load_scene(&args.scene, !args.quiet)?;
-    let (_, embree) = super::build_bvh(
+    let (_, embree) = super::bvh::build_bvh(
         &scene,
         &args.scene,
-        BvhSettings::for_triangles(scene.triangle_count()),
+        args.bvh.settings(scene.triangle_count()),
         !args.quiet,
     )?;
     let hash = hex(scene_hash(&args.scene)?);

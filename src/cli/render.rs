@@ -1,7 +1,6 @@
 //! `photondiff render`: a scene file to an EXR, a PNG preview and statistics.
 
 use super::create_parent;
-use photondiff::embree::{BvhQuality, BvhSettings};
 use photondiff::estimate::final_gather::{MAX_GATHER_RAYS, MAX_NEAR_REACH, NEAR_REACH};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::map::PathClass;
@@ -187,24 +186,8 @@ pub struct RenderArgs {
     /// written as an EXR whose data window is the band; `photondiff merge` joins them.
     #[arg(long, value_name = "I/N")]
     tile: Option<String>,
-    /// Embree's BVH build quality: `medium` (the default: binned SAH), `high` (spatial splits:
-    /// a build two to three times longer, for long renders of large meshes) or `low` (fastest
-    /// build, slower tracing).
-    #[arg(long, value_enum, default_value_t = BvhQuality::Medium)]
-    bvh_quality: BvhQuality,
-    /// Embree's compact BVH (`RTC_SCENE_FLAG_COMPACT`): half the BVH's memory at its build's
-    /// peak, 10-30% slower tracing. Without this or --no-bvh-compact, scenes of 4,000,000
-    /// unique triangles and more get it, smaller ones do not.
-    #[arg(long, overrides_with = "no_bvh_compact")]
-    bvh_compact: bool,
-    /// Embree's ordinary BVH even for scenes of 4,000,000 unique triangles and more: faster
-    /// tracing for about twice the memory (see --bvh-compact).
-    #[arg(long, overrides_with = "bvh_compact")]
-    no_bvh_compact: bool,
-    /// Embree's robust traversal (`RTC_SCENE_FLAG_ROBUST`): no hits missed on edges and
-    /// vertices through traversal shortcuts, somewhat slower tracing.
-    #[arg(long)]
-    bvh_robust: bool,
+    #[command(flatten)]
+    bvh: super::bvh::BvhArgs,
     /// Write a trace for profiling to FILE: Chrome trace-event JSON with spans per stage, pass
     /// and tile and counter tracks (rays, photons, noise); open it in Perfetto
     /// (ui.perfetto.dev) or chrome://tracing.
@@ -306,17 +289,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         eprintln!("photondiff: warning: {}: {warning}", args.scene.display());
     }
     stats.mesh_repairs = scene.mesh_report();
-    let bvh = BvhSettings {
-        quality: args.bvh_quality,
-        compact: match (args.bvh_compact, args.no_bvh_compact) {
-            (true, _) => true,
-            (_, true) => false,
-            _ => BvhSettings::for_triangles(scene.triangle_count()).compact,
-        },
-        robust: args.bvh_robust,
-    };
+    let bvh = args.bvh.settings(scene.triangle_count());
     let (device, embree) = stats.time("build BVH", || {
-        super::build_bvh(&scene, &args.scene, bvh, !args.quiet)
+        super::bvh::build_bvh(&scene, &args.scene, bvh, !args.quiet)
     })?;
     stats.memory.triangles = scene.triangle_count();
     stats.memory.placed_triangles = scene.placed_triangle_count();
