@@ -349,6 +349,8 @@ fn the_command_line_warns_once_counts_repairs_and_info_describes_files() {
         "  repaired   1 zero or non-finite vertex normals",
         // 12 bytes x (5 positions + 5 normals + 2 triangles) = 144 bytes.
         "  memory     144 bytes (0.0 MiB) of mesh buffers",
+        "  BVH        medium (by default under 4,000,000 unique triangles; --bvh-compact for \
+         about half the memory)",
     ] {
         assert!(
             text.lines().any(|l| l.starts_with(line)),

@@ -5,6 +5,9 @@ use photondiff::embree::{self, BvhQuality, BvhSettings, Device};
 use photondiff::scene::Scene;
 use std::path::Path;
 
+// The options' help, `info` and the README say "4,000,000" in words.
+const _: () = assert!(embree::COMPACT_FROM_TRIANGLES == 4_000_000);
+
 /// How Embree builds the scene's BVH: the trade between build time, memory and tracing speed
 /// (README, "Memory and large meshes"). Images do not depend on it.
 #[derive(clap::Args, Debug, Clone, Copy)]

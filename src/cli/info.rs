@@ -1,7 +1,7 @@
 //! `photondiff info FILE`: what a mesh or scene file holds, what loading it dropped or
 //! repaired, and the memory its meshes take.
 
-use photondiff::embree::TriangleMesh;
+use photondiff::embree::{BvhSettings, TriangleMesh};
 use photondiff::scene::file::load_scene;
 use photondiff::scene::mesh_file::{load_mesh_with_report, MeshReport};
 use std::path::PathBuf;
@@ -78,11 +78,12 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
             format!(" unique, {placed} placed (instances counted)")
         };
         out += &format!(
-            "total:\n  triangles  {triangles}{instanced}\n  bounds     {}\n  dropped    {}\n  repaired   {}\n  memory     {}\n",
+            "total:\n  triangles  {triangles}{instanced}\n  bounds     {}\n  dropped    {}\n  repaired   {}\n  memory     {}\n  BVH        {}\n",
             show_bounds(&all),
             dropped(&scene.mesh_report()),
             repaired(&scene.mesh_report()),
             memory(bytes),
+            default_bvh(triangles),
         );
     } else {
         let loaded = load_mesh_with_report(&args.file)?;
@@ -143,6 +144,19 @@ fn memory(bytes: u64) -> String {
         "{bytes} bytes ({:.1} MiB) of mesh buffers",
         bytes as f64 / (1u64 << 20) as f64
     )
+}
+
+/// The BVH `render`, `photons` and `reference` build for a scene of `triangles` unique
+/// triangles unless told otherwise, and the option that changes it.
+fn default_bvh(triangles: u64) -> String {
+    let bvh = BvhSettings::for_triangles(triangles);
+    let why = if bvh.compact {
+        "by default from 4,000,000 unique triangles; --no-bvh-compact for Embree's ordinary \
+         BVH, about twice the memory"
+    } else {
+        "by default under 4,000,000 unique triangles; --bvh-compact for about half the memory"
+    };
+    format!("{bvh} ({why})")
 }
 
 /// How `memory` is estimated, printed once after the figures.
