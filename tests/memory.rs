@@ -194,17 +194,7 @@ fn photons_and_reference_take_the_bvh_options_and_trace_the_same() {
     let dir = tempfile::tempdir().unwrap();
     let path = scene(dir.path());
     let run = |args: &[&str]| {
-        let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
-            .args(args)
-            .arg(&path)
-            .arg("-q")
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        common::run_ok(args.iter().copied().chain([path.to_str().unwrap(), "-q"]));
     };
     let file = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let options = ["--bvh-quality", "high", "--bvh-compact"];

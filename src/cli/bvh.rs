@@ -50,9 +50,24 @@ impl BvhArgs {
     }
 }
 
+impl BvhArgs {
+    /// Builds `scene`'s BVH (read from `path`) as these options ask ([`build_bvh`]); the
+    /// device, the scene and the settings it was built with.
+    pub fn build(
+        &self,
+        scene: &Scene,
+        path: &Path,
+        progress: bool,
+    ) -> Result<(Device, embree::Scene, BvhSettings), String> {
+        let settings = self.settings(scene.triangle_count());
+        let (device, built) = build_bvh(scene, path, settings, progress)?;
+        Ok((device, built, settings))
+    }
+}
+
 /// Builds `scene`'s BVH (read from `path`) with `settings` on a new Embree device, its
 /// progress a bar (`BVH`) when `progress`: a large mesh's build takes seconds to minutes.
-pub fn build_bvh(
+fn build_bvh(
     scene: &Scene,
     path: &Path,
     settings: BvhSettings,

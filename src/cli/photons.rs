@@ -87,12 +87,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     }
     let scene = super::load_scene(&args.scene, !args.quiet)?;
     let hash = scene_hash(&args.scene)?;
-    let (_, embree) = super::bvh::build_bvh(
-        &scene,
-        &args.scene,
-        args.bvh.settings(scene.triangle_count()),
-        !args.quiet,
-    )?;
+    let (_, embree, _) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
     let options = PhotonOptions {
         global_photons: args.global_photons.unwrap_or(defaults.global_photons),
         caustic_photons: args.caustic_photons.unwrap_or(defaults.caustic_photons),

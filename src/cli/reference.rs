@@ -169,12 +169,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         }
     };
     let scene = super::load_scene(&args.scene, !args.quiet)?;
-    let (_, embree) = super::bvh::build_bvh(
-        &scene,
-        &args.scene,
-        args.bvh.settings(scene.triangle_count()),
-        !args.quiet,
-    )?;
+    let (_, embree, _) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
     let hash = hex(scene_hash(&args.scene)?);
     if !args.merge.is_empty() {
         let (parts, meta) = read_parts(&args.merge, &hash)?;

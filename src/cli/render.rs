@@ -289,9 +289,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         eprintln!("photondiff: warning: {}: {warning}", args.scene.display());
     }
     stats.mesh_repairs = scene.mesh_report();
-    let bvh = args.bvh.settings(scene.triangle_count());
-    let (device, embree) = stats.time("build BVH", || {
-        super::bvh::build_bvh(&scene, &args.scene, bvh, !args.quiet)
+    let (device, embree, bvh) = stats.time("build BVH", || {
+        args.bvh.build(&scene, &args.scene, !args.quiet)
     })?;
     stats.memory.triangles = scene.triangle_count();
     stats.memory.placed_triangles = scene.placed_triangle_count();

@@ -58,21 +58,10 @@ pub fn floor_photon(position: DVec3, a: DVec3, b: DVec3, power: f64) -> Photon {
 /// the statistics JSON and the image's pixels.
 pub fn render_file(scene: &Path, stem: &Path, args: &[&str]) -> (serde_json::Value, Vec<DVec3>) {
     let (exr, json) = (stem.with_extension("exr"), stem.with_extension("json"));
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
-        .arg("render")
-        .arg(scene)
-        .arg("-o")
-        .arg(&exr)
-        .arg("--stats-json")
-        .arg(&json)
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let mut all: Vec<&std::ffi::OsStr> = vec!["render".as_ref(), scene.as_ref(), "-o".as_ref()];
+    all.extend([exr.as_os_str(), "--stats-json".as_ref(), json.as_os_str()]);
+    all.extend(args.iter().map(std::ffi::OsStr::new));
+    run_ok(all);
     let stats = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     (stats, read_part(&exr).unwrap().film.pixels)
 }
@@ -123,6 +112,23 @@ radius = 0.5
 segments = 32
 material = "glass"
 "#;
+
+/// Runs photondiff with `args` and checks that it succeeded (its standard error the message
+/// where it did not); its output.
+pub fn run_ok<S: AsRef<std::ffi::OsStr>>(
+    args: impl IntoIterator<Item = S>,
+) -> std::process::Output {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
 
 /// Waits for `child` (a process the test started) at most `limit`: its exit status, or `None`
 /// once it has been killed (by its handle, nothing else) for running past the limit, so that a
