@@ -48,9 +48,7 @@ impl BvhArgs {
             robust: self.bvh_robust,
         }
     }
-}
 
-impl BvhArgs {
     /// Builds `scene`'s BVH (read from `path`) as these options ask ([`build_bvh`]); the
     /// device, the scene and the settings it was built with.
     pub fn build(
