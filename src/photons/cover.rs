@@ -280,6 +280,7 @@ fn dot(a: &[Lanes; 3], b: &[Lanes; 3]) -> Lanes {
 mod tests {
     use super::*;
     use crate::photons::footprint::{footprint, FootprintLimits, Guards};
+    use crate::util::strategies::f32_in;
     use glam::DVec3;
     use proptest::prelude::*;
 
@@ -308,9 +309,9 @@ mod tests {
             a in prop::array::uniform3(-1f64..1.0),
             b in prop::array::uniform3(-1f64..1.0),
             n in prop::array::uniform3(-1f64..1.0),
-            v in prop::array::uniform3(-2f32..2.0),
-            f0 in prop::array::uniform3(-2f32..2.0),
-            f1 in prop::array::uniform3(-2f32..2.0),
+            v in prop::array::uniform3(f32_in(-2.0, 2.0)),
+            f0 in prop::array::uniform3(f32_in(-2.0, 2.0)),
+            f1 in prop::array::uniform3(f32_in(-2.0, 2.0)),
             scale in 0.01f64..1.0,
             fscale in prop::sample::select(vec![0.0f32, 0.01, 0.1, 1.0]),
         ) {
@@ -345,9 +346,9 @@ mod tests {
                  prop::array::uniform3(-1f64..1.0), prop::array::uniform3(-0.5f64..0.5),
                  0.01f64..1.0),
                 1..12),
-            c in prop::array::uniform3(-0.5f32..0.5),
-            f0 in prop::array::uniform3(-1f32..1.0),
-            f1 in prop::array::uniform3(-1f32..1.0),
+            c in prop::array::uniform3(f32_in(-0.5, 0.5)),
+            f0 in prop::array::uniform3(f32_in(-1.0, 1.0)),
+            f1 in prop::array::uniform3(f32_in(-1.0, 1.0)),
             fscale in prop::sample::select(vec![0.0f32, 0.01, 0.1, 1.0]),
             first in 0usize..12,
             count in 0usize..=LANES,

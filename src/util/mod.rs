@@ -8,4 +8,6 @@ pub mod interrupt;
 pub mod memory;
 pub mod progress;
 pub mod rng;
+#[cfg(test)]
+pub(crate) mod strategies;
 pub mod trace;
