@@ -360,11 +360,28 @@ impl RadianceEstimator for IntegratedEstimate<'_> {
             quad_means(&mut scratch.quads, &mut scratch.quad_means);
             let owners = scratch.general.iter().chain(&scratch.general_quads);
             let means = scratch.means.iter().chain(&scratch.quad_means);
+            // A query's photons come in runs: each run is summed in a register and stored
+            // once. (Added into `totals` one by one, each addition waited for the store of the
+            // one before: a fifth of this loop's time at 1.28M photons.) The same additions in
+            // the same order.
+            let mut run: Option<(u32, Vec3)> = None;
             for (&(j, ref p), &mean) in owners.zip(means) {
                 if mean > 0.0 {
                     counts.photons_used += 1;
-                    scratch.totals[j as usize] += p.power * (p.inv_area * mean as f32);
+                    let c = p.power * (p.inv_area * mean as f32);
+                    match &mut run {
+                        Some((owner, sum)) if *owner == j => *sum += c,
+                        _ => {
+                            if let Some((owner, sum)) = run {
+                                scratch.totals[owner as usize] = sum;
+                            }
+                            run = Some((j, scratch.totals[j as usize] + c));
+                        }
+                    }
                 }
+            }
+            if let Some((owner, sum)) = run {
+                scratch.totals[owner as usize] = sum;
             }
             for ((o, q), total) in out.iter_mut().zip(queries).zip(&scratch.totals) {
                 *o = q.albedo * (FRAC_1_PI * FRAC_2_PI) * total.as_dvec3();
