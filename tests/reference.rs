@@ -9,6 +9,8 @@ use photondiff::scene::Scene;
 use std::f64::consts::PI;
 use std::path::Path;
 
+mod common;
+
 /// The canonical scene at `width x height`.
 fn canonical(width: u32, height: u32) -> Scene {
     let mut scene = load_scene(Path::new(concat!(
@@ -346,19 +348,20 @@ fn an_empty_region_has_no_noise_to_tell() {
         .replace("height = 480", "height = 24");
     let floor_only = text.split("[[shapes]]\ntype = \"sphere\"").next().unwrap();
     std::fs::write(&scene, floor_only).unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
-        .arg("reference")
-        .arg(&scene)
-        .args(["--light-paths", "65536", "--caustic-paths", "0"])
-        .args(["--direct-grids", "1,2", "--quiet", "-o", "r.exr"])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let image = dir.path().join("r.exr");
+    let out = common::run_ok([
+        "reference".as_ref(),
+        scene.as_os_str(),
+        "--light-paths".as_ref(),
+        "65536".as_ref(),
+        "--caustic-paths".as_ref(),
+        "0".as_ref(),
+        "--direct-grids".as_ref(),
+        "1,2".as_ref(),
+        "--quiet".as_ref(),
+        "-o".as_ref(),
+        image.as_os_str(),
+    ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     let caustic = stdout
         .lines()
