@@ -350,17 +350,17 @@ fn an_empty_region_has_no_noise_to_tell() {
     std::fs::write(&scene, floor_only).unwrap();
     let image = dir.path().join("r.exr");
     let out = common::run_ok([
-        "reference".as_ref(),
-        scene.as_os_str(),
-        "--light-paths".as_ref(),
-        "65536".as_ref(),
-        "--caustic-paths".as_ref(),
-        "0".as_ref(),
-        "--direct-grids".as_ref(),
-        "1,2".as_ref(),
-        "--quiet".as_ref(),
-        "-o".as_ref(),
-        image.as_os_str(),
+        "reference",
+        scene.to_str().unwrap(),
+        "--light-paths",
+        "65536",
+        "--caustic-paths",
+        "0",
+        "--direct-grids",
+        "1,2",
+        "--quiet",
+        "-o",
+        image.to_str().unwrap(),
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     let caustic = stdout
