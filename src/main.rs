@@ -1,6 +1,6 @@
 //! The `photondiff` command line.
 
-use clap::{Parser, Subcommand};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
 mod cli;
@@ -41,8 +41,32 @@ enum Command {
     Info(cli::info::InfoArgs),
 }
 
+/// Value names of the options that take numbers (one or a list).
+const NUMBER_VALUE_NAMES: [&str; 9] = ["N", "X", "P", "R", "S", "SECONDS", "ALPHA", "EV", "A,B"];
+
+/// The command line, with every option that takes a number taking a negative one as its value:
+/// clap would otherwise read `--overlap -1` as an unknown flag `-1` and answer with a tip
+/// about `--`, where the option's own check names it and its range.
+fn command() -> clap::Command {
+    Cli::command().mut_subcommands(|sub| {
+        sub.mut_args(|arg| {
+            let takes_number = arg.get_value_names().is_some_and(|names| {
+                names
+                    .iter()
+                    .all(|n| NUMBER_VALUE_NAMES.contains(&n.as_str()))
+            });
+            if takes_number {
+                arg.allow_negative_numbers(true)
+            } else {
+                arg
+            }
+        })
+    })
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = Cli::from_arg_matches(&command().get_matches())
+        .unwrap_or_else(|e| e.format(&mut command()).exit());
     let result = match cli.command {
         Command::Render(args) => cli::render::run(&args),
         Command::Reference(args) => cli::reference::run(&args),
@@ -60,5 +84,58 @@ fn main() -> ExitCode {
             eprintln!("photondiff: error: {message}");
             ExitCode::FAILURE
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every option whose value is a number takes `-1` as its value (to be refused by its own
+    /// check, or by clap naming the option), never as an unknown flag.
+    #[test]
+    fn negative_numbers_reach_every_numeric_option() {
+        let mut checked = 0;
+        for sub in command().get_subcommands() {
+            for arg in sub.get_arguments() {
+                let (Some(long), Some(names)) = (arg.get_long(), arg.get_value_names()) else {
+                    continue;
+                };
+                if !names
+                    .iter()
+                    .all(|n| NUMBER_VALUE_NAMES.contains(&n.as_str()))
+                {
+                    continue;
+                }
+                let option = format!("--{long}");
+                let argv = ["photondiff", sub.get_name(), option.as_str(), "-1"];
+                if let Err(e) = command().try_get_matches_from(argv) {
+                    assert_ne!(
+                        e.kind(),
+                        clap::error::ErrorKind::UnknownArgument,
+                        "{argv:?}: {e}"
+                    );
+                }
+                checked += 1;
+            }
+        }
+        // render's --overlap, --global-aim, --gather-near, --passes, ...; photons' and
+        // reference's counts and seeds; compare's thresholds; report's exposure.
+        assert!(checked >= 30, "{checked}");
+    }
+
+    /// The unknown-flag reading this guards against: an option of a number left without the
+    /// setting reads `-1` as a flag of its own.
+    #[test]
+    fn without_the_setting_a_negative_number_is_an_unknown_flag() {
+        let e = Cli::command()
+            .try_get_matches_from(["photondiff", "render", "s.toml", "--overlap", "-1"])
+            .unwrap_err();
+        assert_eq!(e.kind(), clap::error::ErrorKind::UnknownArgument);
+        let m = command()
+            .try_get_matches_from(["photondiff", "render", "s.toml", "--overlap", "-1"])
+            .unwrap();
+        let render = m.subcommand_matches("render").unwrap();
+        assert_eq!(render.get_one::<f64>("overlap"), Some(&-1.0));
     }
 }

@@ -852,3 +852,96 @@ fn an_option_of_another_estimator_is_refused() {
     );
     assert_eq!(json["progressive"]["passes"], 1);
 }
+
+/// An option the run cannot honour is refused before the scene is read: a large scene takes
+/// seconds to load and build its BVH (the 10M-triangle production mesh 3.8 s), and `--k 3` used
+/// to be refused only after that. Here the scene does not exist, so an option's own error can
+/// only come first; a negative number reaches its option's check (clap read `--overlap -1` as
+/// an unknown flag `-1`).
+#[test]
+fn options_are_refused_before_the_scene_is_read() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("missing.toml");
+    let out = dir.path().join("o.exr");
+    let maps = dir.path().join("m.pm");
+    let cases: [(&str, &[&str], &str); 9] = [
+        (
+            "render",
+            &["--k", "3"],
+            "--k applies to --estimator jensen only",
+        ),
+        (
+            "render",
+            &["--overlap", "-1"],
+            "--overlap must be a positive number, got -1",
+        ),
+        (
+            "render",
+            &["--global-aim", "1"],
+            "--global-aim must be at least 0 and less than 1, got 1",
+        ),
+        (
+            "render",
+            &["--gather-near", "-2"],
+            "--gather-near must be at least 0 and at most 1000, got -2",
+        ),
+        (
+            "render",
+            &["--estimator", "lighttrace", "--tile", "0/2"],
+            "--tile cannot split --estimator lighttrace (its paths reach any pixel)",
+        ),
+        (
+            "render",
+            &["--tile", "2/2"],
+            "--tile \"2/2\": tile I must be below N = 2 (tiles count from 0)",
+        ),
+        (
+            "render",
+            &["--estimator", "direct", "--gather-rays", "4"],
+            "--gather-rays needs photon maps: --estimator direct has none",
+        ),
+        (
+            "photons",
+            &["--overlap", "-1"],
+            "--overlap must be a positive number, got -1",
+        ),
+        (
+            "photons",
+            &["--global-aim", "-0.5"],
+            "--global-aim must be at least 0 and less than 1, got -0.5",
+        ),
+    ];
+    for (command, args, message) in cases {
+        let output = if command == "render" { &out } else { &maps };
+        let run = Command::new(exe)
+            .arg(command)
+            .arg(&missing)
+            .arg("-o")
+            .arg(output)
+            .args(args)
+            .output()
+            .unwrap();
+        assert_eq!(run.status.code(), Some(1), "{command} {args:?}");
+        assert_eq!(
+            String::from_utf8_lossy(&run.stderr),
+            format!("photondiff: error: {message}\n"),
+            "{command} {args:?}"
+        );
+    }
+    // With good options, the missing scene is what is refused.
+    let run = Command::new(exe)
+        .arg("render")
+        .arg(&missing)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.starts_with("photondiff: error: ") && stderr.contains("missing.toml"),
+        "{stderr}"
+    );
+    assert!(!out.exists() && !maps.exists());
+}

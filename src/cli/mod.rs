@@ -5,6 +5,7 @@ pub mod compare;
 pub mod info;
 pub mod merge;
 pub mod pass_range;
+pub mod photon_args;
 pub mod photons;
 pub mod reference;
 pub mod render;

@@ -5,7 +5,7 @@ use super::create_parent;
 use super::render::estimator_name;
 use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
-use photondiff::photons::trace::{PhotonOptions, TraceCounts};
+use photondiff::photons::trace::TraceCounts;
 use photondiff::render::passes::RenderDefaults;
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
@@ -24,27 +24,8 @@ pub struct PhotonsArgs {
     /// `jensen`, `pd`, `coplanar` and `multisampled`. The options below override them.
     #[arg(long, value_enum, default_value = "integrated")]
     estimator: EstimatorKind,
-    /// Photons stored in the global map (as `render --photons`; default: the estimator's,
-    /// 50,000 for `integrated`, 100,000 for the thesis's estimators).
-    #[arg(long = "photons", value_name = "N", value_parser = super::photon_count)]
-    global_photons: Option<usize>,
-    /// Photons stored in the caustic map (as `render --caustic-photons`; default: the
-    /// estimator's, 60,000 for `integrated`, 20,000 for the thesis's estimators).
-    #[arg(long, value_name = "N", value_parser = super::photon_count)]
-    caustic_photons: Option<usize>,
-    /// Photon footprint size (as `render --overlap`).
-    #[arg(long, value_name = "X", default_value_t = 32.0)]
-    overlap: f64,
-    /// Share of the global photons' diffuse bounces (and a third of it, of their emissions)
-    /// aimed at the mirror and glass objects (as `render --global-aim`; default: the
-    /// estimator's, 0.15 for `integrated`, 0 for the thesis's estimators).
-    #[arg(long, value_name = "P")]
-    global_aim: Option<f64>,
-    /// Whether each photon's footprint is probed for walls and edges and a mirror photon added
-    /// beyond the nearest (as `render --probe-walls`; default: the estimator's, true for
-    /// `integrated`, false for the thesis's estimators).
-    #[arg(long, value_name = "BOOL", action = clap::ArgAction::Set)]
-    probe_walls: Option<bool>,
+    #[command(flatten)]
+    photons: super::photon_args::PhotonArgs,
     /// Seed of the photons' random streams (as `render --seed`).
     #[arg(long, value_name = "S", default_value_t = 0)]
     seed: u64,
@@ -62,12 +43,6 @@ pub struct PhotonsArgs {
 pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     super::check_threads(args.threads)?;
     super::check_outputs(&[("-o", &args.output)], &[("scene", &args.scene)])?;
-    if !(args.overlap.is_finite() && args.overlap > 0.0) {
-        return Err(format!(
-            "--overlap must be a positive number, got {}",
-            super::shown(args.overlap)
-        ));
-    }
     if matches!(
         args.estimator,
         EstimatorKind::Direct | EstimatorKind::Lighttrace
@@ -78,25 +53,10 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         ));
     }
     let defaults = RenderDefaults::for_estimator(args.estimator);
-    let global_aim = args.global_aim.unwrap_or(defaults.global_aim);
-    if !(0.0..1.0).contains(&global_aim) {
-        return Err(format!(
-            "--global-aim must be at least 0 and less than 1, got {}",
-            super::shown(global_aim)
-        ));
-    }
+    let options = args.photons.options(&defaults, args.seed)?;
     let scene = super::load_scene(&args.scene, !args.quiet)?;
     let hash = scene_hash(&args.scene)?;
     let (_, embree, _) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
-    let options = PhotonOptions {
-        global_photons: args.global_photons.unwrap_or(defaults.global_photons),
-        caustic_photons: args.caustic_photons.unwrap_or(defaults.caustic_photons),
-        overlap: args.overlap,
-        seed: args.seed,
-        global_aim,
-        probe_walls: args.probe_walls.unwrap_or(defaults.probe_walls),
-        ..PhotonOptions::default()
-    };
     super::warn_photon_memory(
         &args.scene,
         options.global_photons + options.caustic_photons,
@@ -114,8 +74,8 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     super::render::warn_shortfalls(
         &args.scene,
         &stats,
-        args.caustic_photons.is_some(),
-        args.global_photons.is_some(),
+        args.photons.caustic_photons.is_some(),
+        args.photons.global_photons.is_some(),
     );
     let counts: [TraceCounts; 2] = [0, 1].map(|i| {
         let m = &stats.photon_maps[i];

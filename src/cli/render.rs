@@ -1,21 +1,20 @@
 //! `photondiff render`: a scene file to an EXR, a PNG preview and statistics.
 
 use super::create_parent;
-use photondiff::estimate::final_gather::{MAX_GATHER_RAYS, MAX_NEAR_REACH, NEAR_REACH};
+use photondiff::estimate::final_gather::{MAX_GATHER_RAYS, NEAR_REACH};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::map::PathClass;
 use photondiff::photons::trace::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer, MAX_PATHS};
 use photondiff::render::pass_part::write_pass_part;
-use photondiff::render::passes::{
-    PassReport, RenderDefaults, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA, DEFAULT_PASSES,
-};
+use photondiff::render::passes::{RenderDefaults, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
 use photondiff::render::stats::Stats;
-use photondiff::render::{
-    load_photon_maps, Progressive, RenderOptions, StopRules, TileSplit, Window,
-};
-use photondiff::scene::hash::{hex, scene_hash};
+use photondiff::render::{load_photon_maps, Progressive, RenderOptions, Window};
+use photondiff::scene::hash::scene_hash;
 use std::path::{Path, PathBuf};
+
+mod checks;
+mod metadata;
 
 /// The longest `--time-budget` taken, in seconds: 365 days.
 const MAX_TIME_BUDGET: f64 = 31_536_000.0;
@@ -87,16 +86,8 @@ pub struct RenderArgs {
     /// Default: `integrated` with progressive passes (see --passes).
     #[arg(long, value_enum)]
     estimator: Option<EstimatorKind>,
-    /// Photons stored in the global map (indirect light, of each pass); emission stops at 4
-    /// emissions per photon asked for, and the statistics say if fewer were stored (a warning
-    /// too when N is given here; a default count is an "up to" count). Default 50,000 for
-    /// `integrated` (the default estimator), 100,000 (the thesis's count) for the others.
-    #[arg(long = "photons", value_name = "N", value_parser = super::photon_count)]
-    global_photons: Option<usize>,
-    /// Photons stored in the caustic map (of each pass). Default 60,000 for `integrated` (the
-    /// default estimator) and 20,000 (the thesis's count) for the others.
-    #[arg(long, value_name = "N", value_parser = super::photon_count)]
-    caustic_photons: Option<usize>,
+    #[command(flatten)]
+    photons: super::photon_args::PhotonArgs,
     /// Final gathering: indirect diffuse light at the first diffuse hit of each camera path
     /// from N stratified cosine-distributed gather rays, which pass through mirrors and glass
     /// and read radiance precomputed from photons at every diffuse hit (--photons of them);
@@ -120,27 +111,6 @@ pub struct RenderArgs {
     /// `--estimator coplanar` only.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(3..=1024))]
     coplanar_vertices: Option<u32>,
-    /// Photon footprint size, as the expected number of footprints covering a point.
-    #[arg(long, value_name = "X", default_value_t = 32.0)]
-    overlap: f64,
-    /// Share of the global photons' diffuse bounces aimed at the mirror and glass objects
-    /// (the rest follow the cosine lobe; powers are weighted so the map's expected value is
-    /// unchanged): in [0, 1), 0 aims none. It carries the light that goes floor -> glass ->
-    /// floor in an open scene with many more photons. A third of the share also aims the
-    /// global photons' emissions from point and spot lights at those objects (light that
-    /// reaches a surface through glass and goes on from there: a caustic's reflection off a
-    /// wall). Default 0.15 for `integrated` (the default estimator), 0 for the others (the
-    /// thesis's photon maps).
-    #[arg(long, value_name = "P")]
-    global_aim: Option<f64>,
-    /// Whether each photon's footprint is probed for walls and edges (16 rays a photon), and a
-    /// mirror photon added beyond the nearest, which gives back the part of the footprint no
-    /// gather sees: without it, light within a footprint's radius of a wall (the floor at the
-    /// foot of a box) or of an edge (the box's top) is too dark, by half at the wall. Default
-    /// true for `integrated` (the default estimator), false for the others (the thesis's photon
-    /// maps).
-    #[arg(long, value_name = "BOOL", action = clap::ArgAction::Set)]
-    probe_walls: Option<bool>,
     /// Light paths traced by `--estimator lighttrace`: at most 10^11, rounded up to an even
     /// number of whole chunks of 65536 (at least two).
     #[arg(long, value_name = "N", default_value_t = 20_000_000,
@@ -152,26 +122,26 @@ pub struct RenderArgs {
     /// --time-budget or --target-noise. Ctrl-C stops the passes after the one under way (and
     /// `lighttrace` after the paths under way) and writes the image of what was done (exit
     /// status 130); a second Ctrl-C exits at once.
-    #[arg(long, value_name = "N", allow_negative_numbers = true)]
+    #[arg(long, value_name = "N")]
     passes: Option<String>,
     /// Photon estimates and `direct`: stop after the last whole pass that fits in SECONDS (at
     /// least one pass). `lighttrace`: stop after SECONDS even if fewer paths are traced. At
     /// most 31536000 (a year).
-    #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
+    #[arg(long, value_name = "SECONDS")]
     time_budget: Option<f64>,
     /// Stop the passes once the estimated relative standard error of the mean (the larger of
     /// the whole image's and the caustic's) falls below X, e.g. 0.01.
-    #[arg(long, value_name = "X", allow_negative_numbers = true)]
+    #[arg(long, value_name = "X")]
     target_noise: Option<f64>,
     /// Footprint schedule of the passes for the caustic map (and jensen's gathers): pass i+1's
     /// footprint area is (i + ALPHA) / (i + 1) times pass i's (i from 1), ALPHA in (0, 1). The
     /// default 0.5 suits a bias of first order in the radius: caustics' peaks and contours,
     /// light against walls and over edges.
-    #[arg(long, value_name = "ALPHA", default_value_t = DEFAULT_ALPHA, allow_negative_numbers = true)]
+    #[arg(long, value_name = "ALPHA", default_value_t = DEFAULT_ALPHA)]
     alpha: f64,
     /// Footprint schedule of the passes for the global map, as --alpha. 0.667 suits a scene
     /// whose global light is smooth (no walls or edges where it is bright).
-    #[arg(long, value_name = "ALPHA", default_value_t = DEFAULT_GLOBAL_ALPHA, allow_negative_numbers = true)]
+    #[arg(long, value_name = "ALPHA", default_value_t = DEFAULT_GLOBAL_ALPHA)]
     global_alpha: f64,
     /// Read the photon maps from MAPS (written by `photondiff photons` for this scene with the
     /// same photon settings) instead of tracing them (for the first pass; later passes trace
@@ -223,7 +193,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     super::check_threads(args.threads)?;
     let kind = estimator_kind(args);
     let defaults = RenderDefaults::for_estimator(kind);
-    let stop = stop_rules(args)?;
+    let stop = checks::stop_rules(args)?;
     let pass_range = super::pass_range::check(
         args.pass_range.as_deref(),
         args.passes.is_some(),
@@ -255,6 +225,14 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             .map(|p| ("--photon-maps file", p)),
     );
     super::check_outputs(&outputs, &inputs)?;
+    // Every option on its own and against the others before the scene is read: a large
+    // scene takes seconds to load and build.
+    let tile = checks::tile(args, kind)?;
+    checks::options(args, kind, pass_range.as_ref())?;
+    let photon_options = PhotonOptions {
+        radiance_map: args.gather_rays > 0,
+        ..args.photons.options(&defaults, args.seed)?
+    };
     let mut range_sum = None;
     if let Some(path) = &args.trace {
         // Refuse an unwritable path now rather than after the render.
@@ -268,20 +246,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let scene = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
     let hash = scene_hash(&args.scene)?;
     let (width, height) = (scene.camera.width, scene.camera.height);
-    // Parsed here rather than by clap, so that a bad split is a one-line error with status 1.
-    let tile: Option<TileSplit> = match &args.tile {
-        Some(t) => Some(t.parse().map_err(|e| format!("--tile {e}"))?),
-        None => None,
-    };
     let window = match &tile {
-        Some(tile) => {
-            if kind == EstimatorKind::Lighttrace {
-                return Err(
-                    "--tile cannot split --estimator lighttrace (its paths reach any pixel)".into(),
-                );
-            }
-            Some(tile.window(width, height)?)
-        }
+        Some(tile) => Some(tile.window(width, height)?),
         None => None,
     };
     // Once per mesh, whatever --quiet says: the scene is not quite what its files say.
@@ -314,93 +280,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         )
         .with_progress(!args.quiet)
         .with_window(window);
-    let photon_options = PhotonOptions {
-        global_photons: args.global_photons.unwrap_or(defaults.global_photons),
-        caustic_photons: args.caustic_photons.unwrap_or(defaults.caustic_photons),
-        overlap: args.overlap,
-        seed: args.seed,
-        global_aim: args.global_aim.unwrap_or(defaults.global_aim),
-        probe_walls: args.probe_walls.unwrap_or(defaults.probe_walls),
-        radiance_map: args.gather_rays > 0,
-        ..PhotonOptions::default()
-    };
     if !matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace) {
         super::warn_photon_memory(
             &args.scene,
             photon_options.global_photons + photon_options.caustic_photons,
         );
-    }
-    if args.gather_rays > 0 {
-        if matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace) {
-            return Err(format!(
-                "--gather-rays needs photon maps: --estimator {} has none",
-                estimator_name(kind)
-            ));
-        }
-        if args.photon_maps.is_some() {
-            return Err(
-                "--gather-rays cannot read --photon-maps: final gathering traces its own radiance map"
-                    .into(),
-            );
-        }
-    }
-    if let (Some(_), Some(range)) = (&args.photon_maps, &pass_range) {
-        // The file holds pass 0's photons; later passes trace their own.
-        if range.start > 0 {
-            return Err(format!(
-                "--photon-maps holds pass 0's photons, which --pass-range {}..{} does not \
-                 render (passes count from 0; the other passes trace their own)",
-                range.start, range.end
-            ));
-        }
-    }
-    // An estimator's own option given to another was ignored without a word.
-    for (given, option, owner) in [
-        (args.k.is_some(), "--k", EstimatorKind::Jensen),
-        (
-            args.ms_grid.is_some(),
-            "--ms-grid",
-            EstimatorKind::Multisampled,
-        ),
-        (
-            args.coplanar_vertices.is_some(),
-            "--coplanar-vertices",
-            EstimatorKind::Coplanar,
-        ),
-    ] {
-        if given && kind != owner {
-            return Err(format!(
-                "{option} applies to --estimator {} only",
-                estimator_name(owner)
-            ));
-        }
-    }
-    if args.photon_maps.is_some()
-        && matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace)
-    {
-        // It was read by neither, without a word.
-        return Err(format!(
-            "--photon-maps does not apply to --estimator {} (it uses no photon maps)",
-            estimator_name(kind)
-        ));
-    }
-    if !(args.overlap.is_finite() && args.overlap > 0.0) {
-        return Err(format!(
-            "--overlap must be a positive number, got {}",
-            super::shown(args.overlap)
-        ));
-    }
-    if !(0.0..=MAX_NEAR_REACH).contains(&args.gather_near) {
-        return Err(format!(
-            "--gather-near must be at least 0 and at most {MAX_NEAR_REACH}, got {}",
-            super::shown(args.gather_near)
-        ));
-    }
-    if !(0.0..1.0).contains(&photon_options.global_aim) {
-        return Err(format!(
-            "--global-aim must be at least 0 and less than 1, got {}",
-            super::shown(photon_options.global_aim)
-        ));
     }
     let settings = EstimatorSettings {
         kind,
@@ -481,91 +365,18 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     warn_shortfalls(
         &args.scene,
         &stats,
-        args.caustic_photons.is_some(),
-        args.global_photons.is_some(),
+        args.photons.caustic_photons.is_some(),
+        args.photons.global_photons.is_some(),
     );
-    let mut metadata = vec![
-        (
-            "photondiff/scene".to_string(),
-            args.scene.display().to_string(),
-        ),
-        ("photondiff/scene_hash".to_string(), hex(hash)),
-        (
-            "photondiff/view_grid".to_string(),
-            args.view_grid.to_string(),
-        ),
-        (
-            "photondiff/edge_grid".to_string(),
-            options.edge_grid.to_string(),
-        ),
-        (
-            "photondiff/estimator".to_string(),
-            format!("{kind:?}").to_lowercase(),
-        ),
-        (
-            "photondiff/photons".to_string(),
-            photon_options.global_photons.to_string(),
-        ),
-        (
-            "photondiff/caustic_photons".to_string(),
-            photon_options.caustic_photons.to_string(),
-        ),
-        ("photondiff/k".to_string(), settings.k.to_string()),
-        (
-            "photondiff/gather_rays".to_string(),
-            args.gather_rays.to_string(),
-        ),
-        (
-            "photondiff/gather_near".to_string(),
-            args.gather_near.to_string(),
-        ),
-        (
-            "photondiff/ms_grid".to_string(),
-            settings.ms_grid.to_string(),
-        ),
-        (
-            "photondiff/coplanar_vertices".to_string(),
-            settings.ellipse_vertices.to_string(),
-        ),
-        ("photondiff/overlap".to_string(), args.overlap.to_string()),
-        (
-            "photondiff/global_aim".to_string(),
-            photon_options.global_aim.to_string(),
-        ),
-        (
-            "photondiff/probe_walls".to_string(),
-            photon_options.probe_walls.to_string(),
-        ),
-        (
-            "photondiff/footprint_shadow_rays".to_string(),
-            options.footprint_strata.to_string(),
-        ),
-        ("photondiff/seed".to_string(), args.seed.to_string()),
-        (
-            "photondiff/embree".to_string(),
-            photondiff::embree::BACKEND.to_string(),
-        ),
-        (
-            "photondiff/max_depth".to_string(),
-            args.max_depth.to_string(),
-        ),
-        (
-            "photondiff/area_samples".to_string(),
-            args.area_samples.to_string(),
-        ),
-        ("photondiff/threads".to_string(), stats.threads.to_string()),
-        (
-            "photondiff/render_seconds".to_string(),
-            format!("{:.6}", stats.seconds("render")),
-        ),
-        (
-            "photondiff/stats".to_string(),
-            serde_json::to_string(&stats).unwrap_or_default(),
-        ),
-    ];
-    if let Some(p) = &stats.progressive {
-        metadata.extend(pass_metadata(p));
-    }
+    let mut metadata = metadata::exr_metadata(
+        args,
+        kind,
+        hash,
+        &options,
+        &photon_options,
+        &settings,
+        &stats,
+    );
     if let Some(tile) = &tile {
         metadata.push(("photondiff/tile".to_string(), tile.to_string()));
     }
@@ -643,97 +454,6 @@ pub(super) fn estimator_name(kind: EstimatorKind) -> String {
 /// The estimator asked for, `integrated` by default.
 fn estimator_kind(args: &RenderArgs) -> EstimatorKind {
     args.estimator.unwrap_or(EstimatorKind::Integrated)
-}
-
-/// Checks the pass options and turns them into stop rules (for photon estimates and `direct`).
-fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
-    let passes = match &args.passes {
-        None => None,
-        Some(text) => match text.trim().parse::<u64>() {
-            Ok(n) if n >= 1 => Some(n),
-            _ => {
-                return Err(format!(
-                    "--passes must be a whole number of at least 1, got {text}"
-                ))
-            }
-        },
-    };
-    if let Some(t) = args.time_budget {
-        if !(t.is_finite() && t > 0.0) {
-            return Err(format!(
-                "--time-budget must be a positive number of seconds, got {t}"
-            ));
-        }
-        // A clock deadline must be representable (`Duration` panics past about 1.8e19 s);
-        // no render needs more than a year.
-        if t > MAX_TIME_BUDGET {
-            return Err(format!(
-                "--time-budget must be at most {MAX_TIME_BUDGET} seconds (a year), got {t:e}"
-            ));
-        }
-    }
-    if let Some(x) = args.target_noise {
-        if !(x.is_finite() && x > 0.0) {
-            return Err(format!(
-                "--target-noise must be a positive relative standard error (e.g. 0.01), got {}",
-                super::shown(x)
-            ));
-        }
-    }
-    if !(args.alpha > 0.0 && args.alpha < 1.0) {
-        return Err(format!(
-            "--alpha must be in (0, 1), got {}",
-            super::shown(args.alpha)
-        ));
-    }
-    if !(args.global_alpha > 0.0 && args.global_alpha < 1.0) {
-        return Err(format!(
-            "--global-alpha must be in (0, 1), got {}",
-            super::shown(args.global_alpha)
-        ));
-    }
-    let kind = estimator_kind(args);
-    if kind == EstimatorKind::Lighttrace && (args.passes.is_some() || args.target_noise.is_some()) {
-        return Err(
-            "--passes and --target-noise do not apply to --estimator lighttrace (it takes \
-             --light-paths and --time-budget)"
-                .to_string(),
-        );
-    }
-    let open = args.time_budget.is_some() || args.target_noise.is_some();
-    let default = match kind {
-        EstimatorKind::Integrated => DEFAULT_PASSES,
-        _ => 1,
-    };
-    Ok(StopRules {
-        passes: passes.or(if open { None } else { Some(default) }),
-        time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
-        target_noise: args.target_noise,
-        on_interrupt: true,
-    })
-}
-
-/// The EXR attributes of a progressive render.
-fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
-    let opt = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.6}"));
-    vec![
-        ("photondiff/passes".to_string(), p.passes.to_string()),
-        ("photondiff/alpha".to_string(), p.alpha.to_string()),
-        (
-            "photondiff/global_alpha".to_string(),
-            p.global_alpha.to_string(),
-        ),
-        (
-            "photondiff/passes_stopped_by".to_string(),
-            format!("{:?}", p.stop).to_lowercase(),
-        ),
-        ("photondiff/noise_whole".to_string(), opt(p.noise.whole)),
-        ("photondiff/noise_caustic".to_string(), opt(p.noise.caustic)),
-        (
-            "photondiff/noise_caustic_pixels".to_string(),
-            p.noise.caustic_pixels.to_string(),
-        ),
-    ]
 }
 
 /// Tells, once per map class and whatever --quiet says, that a photon map holds fewer photons

@@ -48,12 +48,7 @@ pub struct ReportArgs {
     #[arg(long, default_value = "photondiff report")]
     title: String,
     /// Exposure of the tone-mapped images in stops: radiance x 2^EV, then sRGB, clamped.
-    #[arg(
-        long,
-        value_name = "EV",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
+    #[arg(long, value_name = "EV", default_value_t = 0.0)]
     exposure: f64,
 }
 

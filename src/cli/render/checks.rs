@@ -1,0 +1,160 @@
+//! `render`'s options checked on their own and against each other, before the scene is read:
+//! a large scene takes seconds to load and build, and an option the run cannot honour is
+//! refused at once, with the option's name.
+
+use super::{estimator_kind, estimator_name, RenderArgs, MAX_TIME_BUDGET};
+use photondiff::estimate::final_gather::MAX_NEAR_REACH;
+use photondiff::estimate::EstimatorKind;
+use photondiff::render::passes::DEFAULT_PASSES;
+use photondiff::render::{StopRules, TileSplit};
+use std::ops::Range;
+
+/// The pass options as stop rules (for photon estimates and `direct`).
+pub(super) fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
+    let passes = match &args.passes {
+        None => None,
+        Some(text) => match text.trim().parse::<u64>() {
+            Ok(n) if n >= 1 => Some(n),
+            _ => {
+                return Err(format!(
+                    "--passes must be a whole number of at least 1, got {text}"
+                ))
+            }
+        },
+    };
+    if let Some(t) = args.time_budget {
+        if !(t.is_finite() && t > 0.0) {
+            return Err(format!(
+                "--time-budget must be a positive number of seconds, got {t}"
+            ));
+        }
+        // A clock deadline must be representable (`Duration` panics past about 1.8e19 s);
+        // no render needs more than a year.
+        if t > MAX_TIME_BUDGET {
+            return Err(format!(
+                "--time-budget must be at most {MAX_TIME_BUDGET} seconds (a year), got {t:e}"
+            ));
+        }
+    }
+    if let Some(x) = args.target_noise {
+        if !(x.is_finite() && x > 0.0) {
+            return Err(format!(
+                "--target-noise must be a positive relative standard error (e.g. 0.01), got {}",
+                crate::cli::shown(x)
+            ));
+        }
+    }
+    if !(args.alpha > 0.0 && args.alpha < 1.0) {
+        return Err(format!(
+            "--alpha must be in (0, 1), got {}",
+            crate::cli::shown(args.alpha)
+        ));
+    }
+    if !(args.global_alpha > 0.0 && args.global_alpha < 1.0) {
+        return Err(format!(
+            "--global-alpha must be in (0, 1), got {}",
+            crate::cli::shown(args.global_alpha)
+        ));
+    }
+    let kind = estimator_kind(args);
+    if kind == EstimatorKind::Lighttrace && (args.passes.is_some() || args.target_noise.is_some()) {
+        return Err(
+            "--passes and --target-noise do not apply to --estimator lighttrace (it takes \
+             --light-paths and --time-budget)"
+                .to_string(),
+        );
+    }
+    let open = args.time_budget.is_some() || args.target_noise.is_some();
+    let default = match kind {
+        EstimatorKind::Integrated => DEFAULT_PASSES,
+        _ => 1,
+    };
+    Ok(StopRules {
+        passes: passes.or(if open { None } else { Some(default) }),
+        time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
+        target_noise: args.target_noise,
+        on_interrupt: true,
+    })
+}
+
+/// `--tile`, parsed here rather than by clap so that a bad split is a one-line error with
+/// status 1. (Whether the image has rows enough for it is known once the scene is read.)
+pub(super) fn tile(args: &RenderArgs, kind: EstimatorKind) -> Result<Option<TileSplit>, String> {
+    let Some(text) = &args.tile else {
+        return Ok(None);
+    };
+    let tile: TileSplit = text.parse().map_err(|e| format!("--tile {e}"))?;
+    if kind == EstimatorKind::Lighttrace {
+        return Err(
+            "--tile cannot split --estimator lighttrace (its paths reach any pixel)".into(),
+        );
+    }
+    Ok(Some(tile))
+}
+
+/// The options that only some estimators or some runs read: each given where nothing reads it
+/// was ignored without a word, so each is refused.
+pub(super) fn options(
+    args: &RenderArgs,
+    kind: EstimatorKind,
+    pass_range: Option<&Range<u64>>,
+) -> Result<(), String> {
+    let no_maps = matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace);
+    if args.gather_rays > 0 {
+        if no_maps {
+            return Err(format!(
+                "--gather-rays needs photon maps: --estimator {} has none",
+                estimator_name(kind)
+            ));
+        }
+        if args.photon_maps.is_some() {
+            return Err(
+                "--gather-rays cannot read --photon-maps: final gathering traces its own radiance map"
+                    .into(),
+            );
+        }
+    }
+    if let (Some(_), Some(range)) = (&args.photon_maps, pass_range) {
+        // The file holds pass 0's photons; later passes trace their own.
+        if range.start > 0 {
+            return Err(format!(
+                "--photon-maps holds pass 0's photons, which --pass-range {}..{} does not \
+                 render (passes count from 0; the other passes trace their own)",
+                range.start, range.end
+            ));
+        }
+    }
+    for (given, option, owner) in [
+        (args.k.is_some(), "--k", EstimatorKind::Jensen),
+        (
+            args.ms_grid.is_some(),
+            "--ms-grid",
+            EstimatorKind::Multisampled,
+        ),
+        (
+            args.coplanar_vertices.is_some(),
+            "--coplanar-vertices",
+            EstimatorKind::Coplanar,
+        ),
+    ] {
+        if given && kind != owner {
+            return Err(format!(
+                "{option} applies to --estimator {} only",
+                estimator_name(owner)
+            ));
+        }
+    }
+    if args.photon_maps.is_some() && no_maps {
+        return Err(format!(
+            "--photon-maps does not apply to --estimator {} (it uses no photon maps)",
+            estimator_name(kind)
+        ));
+    }
+    if !(0.0..=MAX_NEAR_REACH).contains(&args.gather_near) {
+        return Err(format!(
+            "--gather-near must be at least 0 and at most {MAX_NEAR_REACH}, got {}",
+            crate::cli::shown(args.gather_near)
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,75 @@
+//! The attributes a render writes into its EXR: what was rendered and how, so that an image
+//! says where it came from (`photondiff merge` and `report` read them back).
+
+use super::RenderArgs;
+use photondiff::estimate::{EstimatorKind, EstimatorSettings};
+use photondiff::photons::trace::PhotonOptions;
+use photondiff::render::passes::PassReport;
+use photondiff::render::stats::Stats;
+use photondiff::render::RenderOptions;
+use photondiff::scene::hash::hex;
+
+/// What a render's settings were, as `photondiff/...` attributes (with its statistics, and the
+/// progressive passes' report where there is one).
+pub(super) fn exr_metadata(
+    args: &RenderArgs,
+    kind: EstimatorKind,
+    hash: u64,
+    options: &RenderOptions,
+    photons: &PhotonOptions,
+    settings: &EstimatorSettings,
+    stats: &Stats,
+) -> Vec<(String, String)> {
+    let mut metadata: Vec<(String, String)> = [
+        ("scene", args.scene.display().to_string()),
+        ("scene_hash", hex(hash)),
+        ("view_grid", args.view_grid.to_string()),
+        ("edge_grid", options.edge_grid.to_string()),
+        ("estimator", format!("{kind:?}").to_lowercase()),
+        ("photons", photons.global_photons.to_string()),
+        ("caustic_photons", photons.caustic_photons.to_string()),
+        ("k", settings.k.to_string()),
+        ("gather_rays", args.gather_rays.to_string()),
+        ("gather_near", args.gather_near.to_string()),
+        ("ms_grid", settings.ms_grid.to_string()),
+        ("coplanar_vertices", settings.ellipse_vertices.to_string()),
+        ("overlap", photons.overlap.to_string()),
+        ("global_aim", photons.global_aim.to_string()),
+        ("probe_walls", photons.probe_walls.to_string()),
+        (
+            "footprint_shadow_rays",
+            options.footprint_strata.to_string(),
+        ),
+        ("seed", args.seed.to_string()),
+        ("embree", photondiff::embree::BACKEND.to_string()),
+        ("max_depth", args.max_depth.to_string()),
+        ("area_samples", args.area_samples.to_string()),
+        ("threads", stats.threads.to_string()),
+        ("render_seconds", format!("{:.6}", stats.seconds("render"))),
+        ("stats", serde_json::to_string(stats).unwrap_or_default()),
+    ]
+    .into_iter()
+    .map(|(name, value)| (format!("photondiff/{name}"), value))
+    .collect();
+    if let Some(p) = &stats.progressive {
+        metadata.extend(pass_metadata(p));
+    }
+    metadata
+}
+
+/// The EXR attributes of a progressive render.
+fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
+    let opt = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.6}"));
+    [
+        ("passes", p.passes.to_string()),
+        ("alpha", p.alpha.to_string()),
+        ("global_alpha", p.global_alpha.to_string()),
+        ("passes_stopped_by", format!("{:?}", p.stop).to_lowercase()),
+        ("noise_whole", opt(p.noise.whole)),
+        ("noise_caustic", opt(p.noise.caustic)),
+        ("noise_caustic_pixels", p.noise.caustic_pixels.to_string()),
+    ]
+    .into_iter()
+    .map(|(name, value)| (format!("photondiff/{name}"), value))
+    .collect()
+}
