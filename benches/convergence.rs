@@ -33,16 +33,15 @@
 
 use photondiff::embree::Device;
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::reference::cache::{load_or_make, Reference, ReferenceSettings};
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::reference::report::{self, Chart, Render, Report, Table};
+use photondiff::render::defaults::RenderDefaults;
 use photondiff::render::film::Film;
 use photondiff::render::pass_sum::PassSum;
-use photondiff::render::passes::{
-    Progressive, RenderDefaults, StopRules, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA,
-};
+use photondiff::render::passes::{Progressive, StopRules, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
 use photondiff::render::stats::Stats;
 use photondiff::render::RenderOptions;
 use photondiff::scene::file::load_scene;

@@ -6,7 +6,8 @@
 
 use photondiff::photons::file;
 use photondiff::photons::map::PhotonMap;
-use photondiff::photons::trace::{PhotonOptions, TraceCounts};
+use photondiff::photons::options::PhotonOptions;
+use photondiff::photons::trace::TraceCounts;
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::scene::file::load_scene;

@@ -17,7 +17,7 @@ use common::{env_or, median, ratio_spread, render_in_process};
 
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::map::PhotonMap;
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::scene::file::load_scene;

@@ -16,7 +16,8 @@ use photondiff::estimate::{
 };
 use photondiff::photons::emission::Emitter;
 use photondiff::photons::map::PathClass;
-use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+use photondiff::photons::options::PhotonOptions;
+use photondiff::photons::trace::{PhotonTracer, StopRule};
 use photondiff::scene::file::load_scene;
 use std::path::Path;
 use std::time::Instant;

@@ -19,7 +19,7 @@ use glam::DVec3;
 use photondiff::embree::{Device, Ray, SceneBuilder};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::map::PhotonMap;
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::scene::file::load_scene;

@@ -8,7 +8,7 @@
 //! `PHOTONDIFF_THREADS`).
 
 use photondiff::embree::Device;
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::reference::experiment::Method;
 use photondiff::reference::metrics::{rel_rmse, ssim, Regions};
 use photondiff::render::film::{linear_to_srgb, Film};

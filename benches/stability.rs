@@ -8,7 +8,7 @@
 
 use glam::DVec3;
 use photondiff::embree::Device;
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::reference::experiment::Method;
 use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::reference::stability::{energy_error, worst_pixel_ratio};

@@ -13,7 +13,7 @@
 //! the table as `out/timing_table/table.json` (for `photondiff report --table`).
 
 use photondiff::embree::Device;
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::reference::chart::{scatter_svg, Point};
 use photondiff::reference::experiment::Method;
 use photondiff::reference::metrics::{rel_rmse, ssim, Regions};

@@ -12,7 +12,8 @@
 use photondiff::embree::Device;
 use photondiff::photons::emission::Emitter;
 use photondiff::photons::map::PathClass;
-use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+use photondiff::photons::options::PhotonOptions;
+use photondiff::photons::trace::{PhotonTracer, StopRule};
 use photondiff::scene::file::load_scene;
 use std::path::Path;
 

@@ -5,7 +5,7 @@ mod common;
 use common::render_stats;
 use photondiff::embree::{Device, Ray};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::render::edges::{edge_pixels, same_surface, EdgeMask};
 use photondiff::render::film::Film;
 use photondiff::render::passes::{Progressive, StopRules, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};

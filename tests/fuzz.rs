@@ -5,7 +5,7 @@
 use photondiff::embree::Device;
 use photondiff::estimate::RadianceEstimator;
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::render::{render, RenderOptions};

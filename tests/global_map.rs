@@ -156,7 +156,8 @@ fn the_global_map_holds_the_photons_asked_for_or_says_why_not() {
 fn canonical_global_map(bounce_aim: f64, emission_aim: f64) -> (usize, f64, f64) {
     use photondiff::embree::Device;
     use photondiff::photons::emission::Emitter;
-    use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+    use photondiff::photons::options::PhotonOptions;
+    use photondiff::photons::trace::{PhotonTracer, StopRule};
     let scene = photondiff::scene::file::load_scene(Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/caustic-sphere.toml"

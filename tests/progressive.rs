@@ -4,7 +4,7 @@
 
 use photondiff::embree::Device;
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::render::pass_sum::PassSum;
 use photondiff::render::passes::{
     area_factor, jitter, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA,

@@ -3,7 +3,7 @@
 //! stated tolerance of a light-traced reference's; guards counted where footprints degenerate.
 
 use photondiff::embree::Device;
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::reference::experiment::Method;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer};
 use photondiff::reference::metrics::Regions;

@@ -99,7 +99,7 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
     // pixels are the run's, once, not a pass's.
     let edges = stats["edge_pixels"].as_u64().unwrap();
     assert!(edges > 0 && edges.is_multiple_of(3), "{edges}");
-    let grid = u64::from(photondiff::render::passes::LONG_RUN_EDGE_GRID);
+    let grid = u64::from(photondiff::render::defaults::LONG_RUN_EDGE_GRID);
     assert_eq!(
         named("C", "rays")[0]["args"]["camera"],
         64 * 48 + (grid * grid - 1) * edges / 3

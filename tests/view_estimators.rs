@@ -15,7 +15,8 @@ use photondiff::geometry::polygon::{area_centroid, convex_hull, intersect_convex
 use photondiff::geometry::surface::transfer_to;
 use photondiff::photons::emission::Emitter;
 use photondiff::photons::map::{PathClass, PhotonMap};
-use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+use photondiff::photons::options::PhotonOptions;
+use photondiff::photons::trace::{PhotonTracer, StopRule};
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::render::{render, RenderOptions};

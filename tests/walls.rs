@@ -12,7 +12,8 @@ use photondiff::estimate::{
 use photondiff::photons::emission::Emitter;
 use photondiff::photons::footprint::Footprint;
 use photondiff::photons::map::{PathClass, PhotonMap};
-use photondiff::photons::trace::{PhotonOptions, PhotonTracer, StopRule};
+use photondiff::photons::options::PhotonOptions;
+use photondiff::photons::trace::{PhotonTracer, StopRule};
 use photondiff::photons::walls::{nearest_walls, Wall, Walls};
 use photondiff::scene::file::parse_scene;
 use photondiff::scene::Scene;

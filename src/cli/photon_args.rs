@@ -2,8 +2,8 @@
 //! `photons` writes for `render --photon-maps` is made with the same options as `render` would
 //! make it, and each option is refused with the same words by both.
 
-use photondiff::photons::trace::PhotonOptions;
-use photondiff::render::passes::RenderDefaults;
+use photondiff::photons::options::PhotonOptions;
+use photondiff::render::defaults::RenderDefaults;
 
 /// What the photon maps hold and how wide their footprints are. Every default is the
 /// estimator's ([`RenderDefaults`]).

@@ -6,7 +6,7 @@ use super::render::estimator_name;
 use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
 use photondiff::photons::trace::TraceCounts;
-use photondiff::render::passes::RenderDefaults;
+use photondiff::render::defaults::RenderDefaults;
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::scene::hash::scene_hash;

@@ -26,7 +26,8 @@
 
 use super::footprint::Guards;
 use super::map::{PathClass, Photon, PhotonMap};
-use super::trace::{PhotonOptions, TraceCounts};
+use super::options::PhotonOptions;
+use super::trace::TraceCounts;
 use super::PhotonMaps;
 use glam::{DVec3, Vec3};
 use std::collections::BTreeMap;

@@ -1,5 +1,6 @@
 //! Photon tracing: emission from the lights with emission differentials ([`emission`]), light
-//! paths through the scene ([`light_path`]), the photons they store ([`trace`]), each with its
+//! paths through the scene ([`light_path`]), the photons they store ([`trace`], with the
+//! settings of [`options`]), each with its
 //! footprint ([`footprint`]), gathered into photon maps ([`map`]) with a BVH over footprint
 //! boxes ([`footprint_bvh`]), queried by a footprint's box and, for thin footprints askew to the
 //! axes, its prism ([`prism`]), and an exact test of what a footprint may cover ([`cover`]); for
@@ -13,6 +14,7 @@ pub mod footprint;
 pub mod footprint_bvh;
 pub mod light_path;
 pub mod map;
+pub mod options;
 pub mod prism;
 pub mod radiance_map;
 pub mod targets;

@@ -4,14 +4,13 @@
 use crate::embree;
 use crate::estimate::RadianceEstimator;
 use crate::estimate::{EstimatorKind, EstimatorSettings};
-use crate::photons::trace::PhotonOptions;
+use crate::photons::options::PhotonOptions;
 use crate::photons::PhotonMaps;
+use crate::render::defaults::{RenderDefaults, DEFAULT_PASSES};
 use crate::render::film::Film;
 use crate::render::image::render_image;
 use crate::render::pass_sum::PassSum;
-use crate::render::passes::{
-    Progressive, RenderDefaults, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA, DEFAULT_PASSES,
-};
+use crate::render::passes::{Progressive, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
 use crate::render::stats::Stats;
 use crate::render::{render, RenderOptions};
 use crate::scene::Scene;

@@ -6,8 +6,9 @@ use crate::embree;
 use crate::photons::emission::Emitter;
 use crate::photons::footprint::Guards;
 use crate::photons::map::{PathClass, PhotonMap};
+use crate::photons::options::PhotonOptions;
 use crate::photons::radiance_map::RadianceMap;
-use crate::photons::trace::{max_emissions, PhotonOptions, PhotonTracer, StopRule, TraceCounts};
+use crate::photons::trace::{max_emissions, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
 

@@ -5,7 +5,7 @@
 use super::{estimator_kind, estimator_name, RenderArgs, MAX_TIME_BUDGET};
 use photondiff::estimate::final_gather::MAX_NEAR_REACH;
 use photondiff::estimate::EstimatorKind;
-use photondiff::render::passes::DEFAULT_PASSES;
+use photondiff::render::defaults::DEFAULT_PASSES;
 use photondiff::render::{StopRules, TileSplit};
 use std::ops::Range;
 

@@ -3,7 +3,7 @@
 
 use super::RenderArgs;
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
-use photondiff::photons::trace::PhotonOptions;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::render::passes::PassReport;
 use photondiff::render::stats::Stats;
 use photondiff::render::RenderOptions;
