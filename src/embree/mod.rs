@@ -24,6 +24,7 @@ use v3 as api;
 use v4 as api;
 
 mod bounds;
+mod bvh;
 mod device;
 mod ffi;
 mod hit;
@@ -37,12 +38,13 @@ mod v3;
 mod v4;
 
 pub use bounds::GeometryBounds;
+pub use bvh::{BvhQuality, BvhSettings, COMPACT_FROM_TRIANGLES};
 pub use device::{Device, EmbreeError, EmbreeMemory};
 pub use hit::Hit;
 pub use mesh::{TriangleMesh, MAX_COORDINATE};
 pub use query::RawRays;
 pub use ray::Ray;
-pub use scene::{BvhQuality, BvhSettings, Scene, SceneBuilder, COMPACT_FROM_TRIANGLES};
+pub use scene::{Scene, SceneBuilder};
 
 /// Width of the ray packets traced by [`Scene::intersect16`] and [`Scene::occluded16`].
 pub const PACKET_WIDTH: usize = 16;
