@@ -7,11 +7,13 @@ use photondiff::photons::map::PathClass;
 use photondiff::photons::options::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer, MAX_PATHS};
 use photondiff::render::defaults::RenderDefaults;
+use photondiff::render::film::Film;
 use photondiff::render::pass_part::write_pass_part;
 use photondiff::render::passes::{StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
 use photondiff::render::stats::Stats;
 use photondiff::render::{load_photon_maps, Progressive, RenderOptions, Window};
 use photondiff::scene::hash::scene_hash;
+use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
 
 mod checks;
@@ -299,30 +301,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         gather_near: args.gather_near,
     };
     let film = if kind == EstimatorKind::Lighttrace {
-        let lt_options = LightTraceOptions {
-            paths: args.light_paths,
-            time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
-            seed: args.seed,
-            on_interrupt: true,
-            ..LightTraceOptions::default()
-        };
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(args.threads)
-            .build()
-            .map_err(|e| format!("cannot start worker threads: {e}"))?;
-        stats.threads = pool.current_num_threads();
-        let tracer = LightTracer::new(&scene, &embree, &lt_options);
-        let (paths, _) = tracer.planned_paths();
-        let bar = photondiff::util::progress::bar(options.progress, paths, "light");
-        let result = stats.time("render", || pool.install(|| tracer.run(&bar)));
-        bar.finish_and_clear();
-        let all: Vec<usize> = (0..result.film.pixels.len())
-            .filter(|&i| result.film.pixels[i].max_element() > 0.0)
-            .collect();
-        stats.light_paths = result.paths;
-        stats.light_rays = result.rays;
-        stats.reference_noise = result.relative_noise(&all);
-        result.film
+        light_trace(args, &scene, &embree, options.progress, &mut stats)?
     } else {
         let progressive = Progressive {
             scene: &scene,
@@ -427,6 +406,41 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         );
     }
     Ok(())
+}
+
+/// The image of `--estimator lighttrace`: the light-tracing reference's paths on the worker
+/// threads, with their count, rays and noise in `stats`.
+fn light_trace(
+    args: &RenderArgs,
+    scene: &Scene,
+    embree: &photondiff::embree::Scene,
+    progress: bool,
+    stats: &mut Stats,
+) -> Result<Film, String> {
+    let lt_options = LightTraceOptions {
+        paths: args.light_paths,
+        time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
+        seed: args.seed,
+        on_interrupt: true,
+        ..LightTraceOptions::default()
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()
+        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    stats.threads = pool.current_num_threads();
+    let tracer = LightTracer::new(scene, embree, &lt_options);
+    let (paths, _) = tracer.planned_paths();
+    let bar = photondiff::util::progress::bar(progress, paths, "light");
+    let result = stats.time("render", || pool.install(|| tracer.run(&bar)));
+    bar.finish_and_clear();
+    let all: Vec<usize> = (0..result.film.pixels.len())
+        .filter(|&i| result.film.pixels[i].max_element() > 0.0)
+        .collect();
+    stats.light_paths = result.paths;
+    stats.light_rays = result.rays;
+    stats.reference_noise = result.relative_noise(&all);
+    Ok(result.film)
 }
 
 /// Ctrl-C during a render: the first asks it to stop after the work under way (`first` says
