@@ -404,6 +404,22 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
     );
     let e = render(&scene_a, &d.join("none.pdm"), &[]);
     assert!(e.contains("none.pdm: cannot read photon maps: "), "{e}");
+    // Everything the file's header shows is refused before the scene is read (a large one
+    // takes seconds to load): the same errors with a scene that does not exist. The scene's
+    // hash and the checksum need the scene and the photons.
+    let missing = d.join("missing.toml");
+    let none = d.join("none.pdm");
+    for (maps, extra) in [
+        (&maps, &["--overlap", "16"][..]),
+        (&cut, &[]),
+        (&version, &[]),
+        (&scene_a, &[]),
+        (&none, &[]),
+    ] {
+        assert_eq!(render(&missing, maps, extra), render(&scene_a, maps, extra));
+    }
+    let e = render(&missing, &flipped, &[]);
+    assert!(e.contains("missing.toml"), "{e}");
 }
 
 /// Renders `scene` into `out` with the small photon counts and `extra`.

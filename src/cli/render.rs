@@ -9,7 +9,7 @@ use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer, MAX_PA
 use photondiff::render::defaults::RenderDefaults;
 use photondiff::render::film::Film;
 use photondiff::render::pass_part::write_pass_part;
-use photondiff::render::passes::{StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
+use photondiff::render::passes::{pass_photons, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
 use photondiff::render::stats::Stats;
 use photondiff::render::{load_photon_maps, Progressive, RenderOptions, Window};
 use photondiff::scene::hash::scene_hash;
@@ -236,6 +236,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         radiance_map: args.gather_rays > 0,
         ..args.photons.options(&defaults, args.seed)?
     };
+    if let Some(path) = &args.photon_maps {
+        // The file's header against pass 0's settings now; its photons once the scene is read
+        // (and hashed, which the file must match too).
+        let pass0 = pass_photons(&photon_options, args.alpha, args.global_alpha, 0);
+        photondiff::photons::file::check(path, &pass0)?;
+    }
     let mut range_sum = None;
     if let Some(path) = &args.trace {
         // Refuse an unwritable path now rather than after the render.

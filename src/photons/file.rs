@@ -221,12 +221,41 @@ pub fn read(
     decode(&bytes, scene_hash, options).map_err(|e| format!("{name}: {e}"))
 }
 
-/// Decodes the bytes of a photon-map file (see [`read`]).
-pub fn decode(
-    bytes: &[u8],
-    scene_hash: u64,
-    options: &PhotonOptions,
-) -> Result<(PhotonMaps, [TraceCounts; 2]), String> {
+/// Checks the photon-map file at `path` as far as its header goes, without reading its
+/// photons: a photon-map file of this version, of the size its header gives, traced with
+/// `options`. What [`read`] would refuse of these is refused with the same words; the scene's
+/// hash and the checksum are left to [`read`]. A render checks its `--photon-maps` so before
+/// it reads the scene, which can take seconds.
+pub fn check(path: &Path, options: &PhotonOptions) -> Result<(), String> {
+    use std::io::Read;
+    let name = path.display();
+    let cannot = |e: std::io::Error| format!("{name}: cannot read photon maps: {e}");
+    let mut file = crate::util::input::open(path).map_err(cannot)?;
+    let len = file.metadata().map_err(cannot)?.len();
+    // The fixed 16 bytes, then the header they announce (at most what the file holds).
+    let mut start = Vec::new();
+    (&mut file)
+        .take(16)
+        .read_to_end(&mut start)
+        .map_err(cannot)?;
+    let header_len =
+        |start: &[u8]| u64::from(u32::from_le_bytes(start[12..16].try_into().expect("4")));
+    // (A header longer than the file is refused as truncated by `header` without reading.)
+    if start.len() == 16 && &start[..8] == MAGIC && 16 + header_len(&start) <= len {
+        let header_len = header_len(&start);
+        (&mut file)
+            .take(header_len)
+            .read_to_end(&mut start)
+            .map_err(cannot)?;
+    }
+    let (header, _) = header(&start, len).map_err(|e| format!("{name}: {e}"))?;
+    check_settings(&header, options).map_err(|e| format!("{name}: {e}"))
+}
+
+/// The header of a photon-map file whose first bytes are `bytes` (at least up to the header's
+/// end) and whose length is `len`, with where its payload ends; the file's size is checked
+/// against the header.
+fn header(bytes: &[u8], len: u64) -> Result<(Header, usize), String> {
     if bytes.len() < 16 || &bytes[..8] != MAGIC {
         return Err("not a photondiff photon-map file".into());
     }
@@ -237,12 +266,8 @@ pub fn decode(
         ));
     }
     let header_len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
-    let truncated = |expected: u64| {
-        format!(
-            "truncated photon-map file: {} bytes, expected {expected}",
-            bytes.len()
-        )
-    };
+    let truncated =
+        |expected: u64| format!("truncated photon-map file: {len} bytes, expected {expected}");
     if bytes.len() < 16 + header_len {
         return Err(truncated(16 + header_len as u64 + 8));
     }
@@ -252,17 +277,38 @@ pub fn decode(
         .checked_add(header.payload_bytes)
         .filter(|e| *e < u64::MAX - 8)
         .ok_or("corrupt photon-map file header: impossible payload size")?;
-    if (bytes.len() as u64) < end + 8 {
+    if len < end + 8 {
         return Err(truncated(end + 8));
     }
-    if bytes.len() as u64 > end + 8 {
+    if len > end + 8 {
         return Err(format!(
-            "corrupt photon-map file: {} bytes, expected {}",
-            bytes.len(),
+            "corrupt photon-map file: {len} bytes, expected {}",
             end + 8
         ));
     }
-    let end = end as usize;
+    Ok((header, end as usize))
+}
+
+/// Refuses a header whose settings are not `options`'.
+fn check_settings(header: &Header, options: &PhotonOptions) -> Result<(), String> {
+    for (key, value) in &settings(options) {
+        let theirs = header.settings.get(key).map_or("(none)", |v| v.as_str());
+        if theirs != value {
+            return Err(format!(
+                "photon maps traced with other settings: {key} is {theirs} in the file, {value} in this render"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Decodes the bytes of a photon-map file (see [`read`]).
+pub fn decode(
+    bytes: &[u8],
+    scene_hash: u64,
+    options: &PhotonOptions,
+) -> Result<(PhotonMaps, [TraceCounts; 2]), String> {
+    let (header, end) = header(bytes, bytes.len() as u64)?;
     if checksum(&bytes[..end]) != u64_at(bytes, end) {
         return Err("corrupt photon-map file: checksum mismatch".into());
     }
@@ -273,15 +319,8 @@ pub fn decode(
             header.scene_hash
         ));
     }
-    let wanted = settings(options);
-    for (key, value) in &wanted {
-        let theirs = header.settings.get(key).map_or("(none)", |v| v.as_str());
-        if theirs != value {
-            return Err(format!(
-                "photon maps traced with other settings: {key} is {theirs} in the file, {value} in this render"
-            ));
-        }
-    }
+    check_settings(&header, options)?;
+    let header_len = end - header.payload_bytes as usize - 16;
     let payload = &bytes[16 + header_len..end];
     let mut at = 0;
     let (caustic, c) = take_map(payload, &mut at, PathClass::Caustic)?;

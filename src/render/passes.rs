@@ -69,6 +69,27 @@ pub const DEFAULT_ALPHA: f64 = 0.5;
 /// passes").
 pub const DEFAULT_GLOBAL_ALPHA: f64 = DEFAULT_ALPHA;
 
+/// The photon options of pass `pass` of a run with `photons` and the footprint schedules
+/// `alpha` (caustic) and `global_alpha` (global): the part of [`Progressive::pass_settings`]
+/// that needs no scene (pass 0's are `photons` themselves).
+pub fn pass_photons(
+    photons: &PhotonOptions,
+    alpha: f64,
+    global_alpha: f64,
+    pass: u64,
+) -> PhotonOptions {
+    let s = area_factor(alpha, pass);
+    let global = area_factor(global_alpha, pass);
+    let (lo, hi) = photons.radius_limits;
+    PhotonOptions {
+        overlap: photons.overlap * s,
+        radius_limits: (lo * s.sqrt(), hi * s.sqrt()),
+        global_area_scale: photons.global_area_scale * global / s,
+        seed: derive_seed(photons.seed, pass),
+        ..photons.clone()
+    }
+}
+
 /// The footprint area factor of pass `pass`: `prod_{j=1..pass} (j + alpha) / (j + 1)`.
 pub fn area_factor(alpha: f64, pass: u64) -> f64 {
     (1..=pass).fold(1.0, |s, j| s * (j as f64 + alpha) / (j as f64 + 1.0))
@@ -164,16 +185,7 @@ impl Progressive<'_> {
     /// The photon, estimator and render settings of pass `pass`.
     pub fn pass_settings(&self, pass: u64) -> (PhotonOptions, EstimatorSettings, RenderOptions) {
         let s = area_factor(self.alpha, pass);
-        let global = area_factor(self.global_alpha, pass);
-        let seed = derive_seed(self.photons.seed, pass);
-        let (lo, hi) = self.photons.radius_limits;
-        let photons = PhotonOptions {
-            overlap: self.photons.overlap * s,
-            radius_limits: (lo * s.sqrt(), hi * s.sqrt()),
-            global_area_scale: self.photons.global_area_scale * global / s,
-            seed,
-            ..self.photons.clone()
-        };
+        let photons = pass_photons(&self.photons, self.alpha, self.global_alpha, pass);
         let k = self.estimator.k;
         let estimator = EstimatorSettings {
             max_radius: photons.limits(self.scene).max_radius,
