@@ -274,6 +274,29 @@ fn references_made_in_parts_merge_into_their_mean() {
     let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "part1.exr", "-o", "x.exr"]);
     assert!(!ok);
     assert!(err.contains("part1.exr: seed 1 appears twice"), "{err}");
+    // What needs no scene is refused before the scene is read (a large one takes seconds):
+    // the same errors for a scene that does not exist.
+    for (args, message) in [
+        (
+            &["--merge", "part1.exr", "part1.exr", "-o", "x.exr"][..],
+            "photondiff: error: part1.exr: seed 1 appears twice among the parts: they would not \
+             be independent\n",
+        ),
+        (
+            &["--light-paths", "0", "--caustic-paths", "0", "-o", "x.exr"][..],
+            "photondiff: error: --light-paths and --caustic-paths cannot both be 0\n",
+        ),
+    ] {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+            .arg("reference")
+            .arg(d.join("missing.toml"))
+            .args(args)
+            .current_dir(d)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+        assert_eq!(String::from_utf8_lossy(&out.stderr), message);
+    }
     // Other settings (here the direct grids) cannot be averaged.
     let (ok, err) = reference_cli(
         d,

@@ -82,23 +82,44 @@ fn settings_of(part: &Part) -> Result<(String, u64), String> {
 /// The attribute naming the scene a reference was made of (its [`scene_hash`]).
 const SCENE_KEY: &str = "photondiff/scene_hash";
 
-/// Reads the references of `--merge` and checks that they can be averaged, and that each is
-/// of the scene `hash` names (references written before they carried the scene's hash are
-/// taken as they are).
-fn read_parts(parts: &[PathBuf], hash: &str) -> Result<(Vec<Reference>, String), String> {
+/// The references of `--merge`, read and checked to be averageable before the scene is read
+/// (which can take seconds), with the scene each names, if it does ([`Parts::check_scene`]).
+struct Parts {
+    references: Vec<Reference>,
+    /// Each part's [`SCENE_KEY`], with its path.
+    scenes: Vec<(PathBuf, Option<String>)>,
+    /// What the merged reference's [`META_KEY`] says.
+    meta: String,
+}
+
+impl Parts {
+    /// Refuses a part of another scene than the one of hash `hash` (references written before
+    /// they carried the scene's hash are taken as they are).
+    fn check_scene(&self, hash: &str) -> Result<(), String> {
+        for (path, scene) in &self.scenes {
+            if let Some(other) = scene.as_ref().filter(|h| *h != hash) {
+                return Err(format!(
+                    "{}: a reference of another scene ({SCENE_KEY} {other}, this scene's {hash})",
+                    path.display()
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Reads the references of `--merge` and checks that they can be averaged: the same
+/// settings, different seeds.
+fn read_parts(parts: &[PathBuf]) -> Result<Parts, String> {
     let mut seeds = Vec::new();
     let mut common: Option<String> = None;
     let mut references = Vec::new();
+    let mut scenes = Vec::new();
     for path in parts {
         // The image and its settings in one read.
         let part = read_part(path)?;
         let (settings, seed) = settings_of(&part)?;
-        if let Some(other) = part.metadata.get(SCENE_KEY).filter(|h| *h != hash) {
-            return Err(format!(
-                "{}: a reference of another scene ({SCENE_KEY} {other}, this scene's {hash})",
-                path.display()
-            ));
-        }
+        scenes.push((path.clone(), part.metadata.get(SCENE_KEY).cloned()));
         if let Some(c) = &common {
             if *c != settings {
                 return Err(format!(
@@ -128,7 +149,11 @@ fn read_parts(parts: &[PathBuf], hash: &str) -> Result<(Vec<Reference>, String),
         parts.len(),
         common.unwrap_or_default()
     );
-    Ok((references, meta))
+    Ok(Parts {
+        references,
+        scenes,
+        meta,
+    })
 }
 
 /// Runs `photondiff reference`.
@@ -168,17 +193,26 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
             ))
         }
     };
+    // What needs no scene is checked (and the parts read) before the scene is read: a large
+    // one takes seconds to load and build.
+    let parts = match args.merge.is_empty() {
+        true if args.light_paths == 0 && args.caustic_paths == 0 => {
+            return Err("--light-paths and --caustic-paths cannot both be 0".into());
+        }
+        true => None,
+        false => Some(read_parts(&args.merge)?),
+    };
     let scene = super::load_scene(&args.scene, !args.quiet)?;
     let (_, embree, _) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
     let hash = hex(scene_hash(&args.scene)?);
-    if !args.merge.is_empty() {
-        let (parts, meta) = read_parts(&args.merge, &hash)?;
-        let reference = merge(&parts)?;
-        let meta = vec![(META_KEY.to_string(), meta), (SCENE_KEY.to_string(), hash)];
+    if let Some(parts) = parts {
+        parts.check_scene(&hash)?;
+        let reference = merge(&parts.references)?;
+        let meta = vec![
+            (META_KEY.to_string(), parts.meta),
+            (SCENE_KEY.to_string(), hash),
+        ];
         return write(args, &scene, &embree, &reference, &meta, None);
-    }
-    if args.light_paths == 0 && args.caustic_paths == 0 {
-        return Err("--light-paths and --caustic-paths cannot both be 0".into());
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
