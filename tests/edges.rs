@@ -275,8 +275,11 @@ fn bad_edge_grids_are_clear_errors() {
             .unwrap();
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert!(!out.status.success());
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
         assert!(
-            stderr.contains("--edge-grid") && stderr.contains(bad),
+            stderr.starts_with(&format!(
+                "error: invalid value '{bad}' for '--edge-grid <N>': {bad} is not in 1..=64\n"
+            )),
             "--edge-grid {bad}: {stderr}"
         );
     }

@@ -54,7 +54,14 @@ fn pixels_partly_covered_by_glass_are_not_judged_as_diffuse() {
     let embree = scene.build_embree(&device).unwrap();
     let c = &scene.camera;
     let (w, h) = (c.width as usize, c.height as usize);
-    let reference = Film::new(c.width, c.height);
+    // A dim reference (1e-3, far below the floor's direct light) with a bright 6 x 6 block in
+    // the top-left corner, where the floor is clear of the pane: the block is a caustic (more
+    // than 1.5 times the direct light), every judged pixel is lit.
+    let mut reference = Film::new(c.width, c.height);
+    let block = |i: usize| i % w < 6 && i / w < 6;
+    for (i, p) in reference.pixels.iter_mut().enumerate() {
+        *p = glam::DVec3::splat(if block(i) { 1e3 } else { 1e-3 });
+    }
     let regions = Regions::new(&scene, &embree, &reference);
 
     // The pane's rectangle in continuous pixel coordinates.
@@ -102,7 +109,15 @@ fn pixels_partly_covered_by_glass_are_not_judged_as_diffuse() {
         partly >= 2 * 8,
         "{partly} pixels with their centre on the floor show the pane"
     );
-    // The lit, caustic and shadow regions are drawn from the judged pixels only.
+    // The lit, caustic and shadow regions are drawn from the judged pixels only: every judged
+    // pixel is lit, the caustic is the block, and the floor in the pane's shadow that the
+    // camera sees past the pane (the light is nearer the pane than the camera, so the shadow
+    // is wider than the pane's image) is the shadow.
+    assert_eq!(regions.lit, regions.diffuse);
+    let expected: Vec<usize> = (0..w * h).filter(|&i| block(i)).collect();
+    assert_eq!(regions.caustic, expected);
+    assert!(!regions.shadow.is_empty());
+    assert!(regions.shadow.iter().all(|i| !block(*i)));
     for i in regions
         .caustic
         .iter()

@@ -2,6 +2,8 @@
 //! missing) loads the page from disk; every image must load, no error may reach the console,
 //! the zoom must move every view together, and a screenshot must show content.
 
+mod common;
+
 use photondiff::reference::channels::ChannelImage;
 use photondiff::reference::chart::{scatter_svg, Point};
 use photondiff::render::film::Film;
@@ -35,7 +37,7 @@ fn install_chromium() -> bool {
             .status()
             .is_ok_and(|s| s.success());
     if !root && !sudo {
-        eprintln!("SKIPPED: {CHROMIUM} is missing and packages cannot be installed here (not root, no password-less sudo); install Debian's chromium package to run this test");
+        common::unavailable(&format!("{CHROMIUM} is missing and packages cannot be installed here (not root, no password-less sudo); install Debian's chromium package to run this test"));
         return false;
     }
     let apt = |args: &[&str]| {

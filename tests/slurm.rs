@@ -11,6 +11,8 @@
 //! temporary folder (no authentication, free ports), and are shut down with
 //! `scontrol shutdown`; only their process ids are ever killed.
 
+mod common;
+
 use photondiff::render::part::read_part;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -298,7 +300,9 @@ fn single_process(scene: &Path, out: &Path, extra: &[&str]) -> Vec<[u64; 3]> {
 #[test]
 fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed_tile() {
     if let Err(why) = install_slurm() {
-        eprintln!("SKIPPED: the Slurm packages are missing and cannot be installed: {why}");
+        common::unavailable(&format!(
+            "the Slurm packages are missing and cannot be installed: {why}"
+        ));
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -132,6 +132,12 @@ fn an_unwritable_trace_path_is_a_one_line_error_before_rendering() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
-    assert!(stderr.starts_with("photondiff: error: "), "{stderr}");
+    assert_eq!(
+        stderr,
+        format!(
+            "photondiff: error: --trace: {}: cannot create folder: File exists (os error 17)\n",
+            blocker.display()
+        )
+    );
     assert!(!dir.path().join("a.exr").exists());
 }

@@ -294,22 +294,32 @@ mod tests {
         assert!(worst <= 8.0 * f64::EPSILON, "{worst:e}");
     }
 
+    /// The steps are the plastic number's reciprocal and its square: the plastic number is the
+    /// real root of `x^3 = x + 1`, found here by Newton's method.
+    #[test]
+    fn r2_steps_come_from_the_plastic_number() {
+        let mut rho = 1.5_f64;
+        for _ in 0..50 {
+            rho -= (rho * rho * rho - rho - 1.0) / (3.0 * rho * rho - 1.0);
+        }
+        assert!((rho * rho * rho - rho - 1.0).abs() < 1e-15, "{rho}");
+        let ulp = |x: f64| f64::EPSILON * x;
+        assert!((A1 - 1.0 / rho).abs() <= ulp(A1), "{A1} {}", 1.0 / rho);
+        assert!(
+            (A2 - 1.0 / (rho * rho)).abs() <= ulp(A2),
+            "{A2} {}",
+            1.0 / (rho * rho)
+        );
+    }
+
     #[test]
     fn r2_is_the_fractional_part_of_the_plastic_numbers_multiples() {
         let shift = [0.37, 0.91];
         for index in (0..10_000u64).chain([1 << 20, (1 << 40) + 7, u32::MAX as u64 * 3]) {
             let i = index as f64;
             let (u, v) = r2(index, shift);
-            assert_eq!(
-                u,
-                (shift[0] + i * 0.754_877_666_246_692_8).fract(),
-                "{index}"
-            );
-            assert_eq!(
-                v,
-                (shift[1] + i * 0.569_840_290_998_053_3).fract(),
-                "{index}"
-            );
+            assert_eq!(u, (shift[0] + i * A1).fract(), "{index}");
+            assert_eq!(v, (shift[1] + i * A2).fract(), "{index}");
             assert!((0.0..1.0).contains(&u) && (0.0..1.0).contains(&v));
         }
         for first in [0, 1 << 20, 1 << 40, u32::MAX as u64 * 3] {

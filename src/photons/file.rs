@@ -403,9 +403,16 @@ mod tests {
             decode(&bytes, 0xabc, &other).err().unwrap(),
             "photon maps traced with other settings: --seed is 0 in the file, 3 in this render"
         );
-        // Every truncation is an error, never a panic.
+        // Every truncation is an error naming what is wrong, never a panic: too short for the
+        // magic, or a file shorter than its header says.
         for len in 0..bytes.len() {
-            assert!(decode(&bytes[..len], 0xabc, &options).is_err());
+            let e = decode(&bytes[..len], 0xabc, &options).err().unwrap();
+            let expected = if len < 16 {
+                "not a photondiff photon-map file".to_string()
+            } else {
+                format!("truncated photon-map file: {len} bytes, expected ")
+            };
+            assert!(e.starts_with(&expected), "{len}: {e}");
         }
     }
 }

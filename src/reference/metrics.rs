@@ -279,9 +279,19 @@ mod tests {
         for p in &mut i.pixels {
             *p *= 1.1;
         }
-        // A uniform 10% excess: relRMSE = 0.1 * rms(R) / mean(R), a little above 0.1.
+        // A uniform 10% excess: relRMSE = 0.1 * rms(R) / mean(R). With R_i = 0.2 + 0.001 i,
+        // i < 256: mean(R) = 0.3275, mean(R^2) = 0.04 + 0.051 + 1e-6 * 255 * 511 / 6.
         let e = rel_rmse(&i, &r, &all);
-        assert!(e > 0.1 && e < 0.11, "{e}");
+        let expected = 0.1 * (0.04 + 0.051 + 1e-6 * 255.0 * 511.0 / 6.0_f64).sqrt() / 0.3275;
+        assert!((e - expected).abs() <= 1e-12 * expected, "{e} {expected}");
+        // Two flat planes: every window's variances and covariance are 0, so its SSIM is the
+        // luminance term (2 a b + c1) / (a^2 + b^2 + c1), c1 = 0.01^2.
+        let (a, b) = (vec![0.5; 256], vec![0.6; 256]);
+        let c1 = 1e-4;
+        let flat = (2.0 * 0.5 * 0.6 + c1) / (0.25 + 0.36 + c1);
+        let m = mean_ssim(&a, &b, 16, 16, |_, _| true).unwrap();
+        assert!((m - flat).abs() < 1e-12, "{m} {flat}");
+        assert_eq!(mean_ssim(&a, &b, 16, 16, |_, _| false), None);
         let mut noisy = r.clone();
         for (k, p) in noisy.pixels.iter_mut().enumerate() {
             *p += DVec3::splat(if k % 2 == 0 { 0.1 } else { -0.1 });

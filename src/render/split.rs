@@ -173,9 +173,16 @@ mod tests {
             "5/4".parse::<TileSplit>().unwrap_err(),
             "\"5/4\": tile I must be below N = 4 (tiles count from 0)"
         );
-        assert!("4/4".parse::<TileSplit>().is_err());
-        assert!("a/4".parse::<TileSplit>().is_err());
-        assert!("3".parse::<TileSplit>().is_err());
+        assert_eq!(
+            "4/4".parse::<TileSplit>().unwrap_err(),
+            "\"4/4\": tile I must be below N = 4 (tiles count from 0)"
+        );
+        for bad in ["a/4", "3"] {
+            assert_eq!(
+                bad.parse::<TileSplit>().unwrap_err(),
+                format!("expected I/N with 0 <= I < N (I counts from 0), got {bad:?}")
+            );
+        }
         assert_eq!(
             TileSplit { index: 0, count: 4 }.window(64, 48).unwrap_err(),
             "--tile 0/4: the 48-pixel-high image has only 3 rows of 16-pixel tiles; use at most 3 tiles"
@@ -184,22 +191,28 @@ mod tests {
 
     #[test]
     fn windows_off_the_tile_grid_are_refused() {
-        assert!(Window {
-            x0: 8,
-            y0: 0,
-            x1: 64,
-            y1: 32
-        }
-        .check(64, 48)
-        .is_err());
-        assert!(Window {
-            x0: 0,
-            y0: 0,
-            x1: 64,
-            y1: 48
-        }
-        .check(64, 40)
-        .is_err());
+        assert_eq!(
+            Window {
+                x0: 8,
+                y0: 0,
+                x1: 64,
+                y1: 32
+            }
+            .check(64, 48)
+            .unwrap_err(),
+            "window x 8..64, y 0..32 does not follow the 16-pixel render tiles"
+        );
+        assert_eq!(
+            Window {
+                x0: 0,
+                y0: 0,
+                x1: 64,
+                y1: 48
+            }
+            .check(64, 40)
+            .unwrap_err(),
+            "window x 0..64, y 0..48 is not inside the 64 x 40 image"
+        );
         Window {
             x0: 16,
             y0: 32,

@@ -130,7 +130,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("a.exr");
         std::fs::create_dir(&path).unwrap();
-        assert!(write_bytes(&path, b"x").is_err());
+        assert_eq!(
+            write_bytes(&path, b"x").unwrap_err(),
+            format!(
+                "{}: cannot write: Is a directory (os error 21)",
+                path.display()
+            )
+        );
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 }

@@ -39,17 +39,25 @@ mod tests {
         assert!(total > resident_bytes() && total > 1 << 28, "{total}");
     }
 
+    /// The peak never falls, holds at least what is resident, and what is resident counts a
+    /// block written page by page. (Unit tests share the process with other threads that
+    /// allocate and free, so the peak's growth by the block cannot be asserted here: another
+    /// test may have raised it beyond already. `tests/memory.rs` checks peaks of whole runs.)
     #[test]
-    fn peak_is_at_least_what_is_resident_and_grows_with_a_touched_allocation() {
+    fn peak_is_monotone_and_at_least_what_is_resident() {
         let before = peak_resident_bytes();
-        assert!(before >= resident_bytes().min(before) && before > 0);
-        // 64 MiB written page by page must raise the high-water mark by most of that.
+        assert!(before > 0);
         let block = vec![1u8; 64 << 20];
+        // Resident first, then the peak: the peak can only have risen in between.
+        let resident = resident_bytes();
         let after = peak_resident_bytes();
         assert!(block.iter().step_by(4096).all(|&b| b == 1));
+        assert!(resident >= 48 << 20, "VmRSS {resident} holding 64 MiB");
+        assert!(after >= before, "VmHWM {before} -> {after}");
+        // The kernel's resident counters are per thread and lag by up to 64 pages each.
         assert!(
-            after >= before + (48 << 20) || before > resident_bytes() + (64 << 20),
-            "VmHWM {before} -> {after}"
+            after + (4 << 20) >= resident,
+            "VmHWM {after} < VmRSS {resident}"
         );
     }
 }

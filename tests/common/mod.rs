@@ -150,3 +150,18 @@ pub fn wait_at_most(
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
 }
+
+/// The variable that lets a test which needs a real component (Chromium, a Slurm cluster) pass
+/// without it where the component cannot be installed (no root, no password-less sudo).
+pub const SKIP_COMPONENTS: &str = "PHOTONDIFF_SKIP_COMPONENTS";
+
+/// A component a test needs cannot be had here (`why`): the test fails, saying so, unless
+/// [`SKIP_COMPONENTS`] is set to 1, when it is skipped (returns) with the reason on stderr. A
+/// test that passed silently without its component could not fail.
+pub fn unavailable(why: &str) {
+    if std::env::var(SKIP_COMPONENTS).is_ok_and(|v| v == "1") {
+        eprintln!("SKIPPED ({SKIP_COMPONENTS}=1): {why}");
+        return;
+    }
+    panic!("{why}; set {SKIP_COMPONENTS}=1 to skip this test where it cannot be installed");
+}
