@@ -420,6 +420,31 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
     }
     let e = render(&missing, &flipped, &[]);
     assert!(e.contains("missing.toml"), "{e}");
+    // A named pipe (a shell's `<(cat a.pdm)`) is read once, whole, after the scene: its header
+    // is not read ahead, which would take it from the render.
+    let fifo = d.join("maps.fifo");
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    let writer = {
+        let fifo = fifo.clone();
+        std::thread::spawn(move || std::fs::write(fifo, bytes).unwrap())
+    };
+    let mut args = vec![
+        "render",
+        s(&scene_a),
+        "-o",
+        s(&out),
+        "--photon-maps",
+        s(&fifo),
+    ];
+    args.extend(["--quiet"]);
+    args.extend(PHOTONS);
+    ok(&args);
+    writer.join().unwrap();
+    assert!(out.exists());
 }
 
 /// Renders `scene` into `out` with the small photon counts and `extra`.

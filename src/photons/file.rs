@@ -230,8 +230,14 @@ pub fn check(path: &Path, options: &PhotonOptions) -> Result<(), String> {
     use std::io::Read;
     let name = path.display();
     let cannot = |e: std::io::Error| format!("{name}: cannot read photon maps: {e}");
+    let meta = std::fs::metadata(path).map_err(cannot)?;
+    if !meta.is_file() {
+        // A named pipe (a shell's `<(...)`) can be opened and read once only, and a folder or
+        // a device is refused by [`read`]: checked whole there.
+        return Ok(());
+    }
     let mut file = crate::util::input::open(path).map_err(cannot)?;
-    let len = file.metadata().map_err(cannot)?.len();
+    let len = meta.len();
     // The fixed 16 bytes, then the header they announce (at most what the file holds).
     let mut start = Vec::new();
     (&mut file)
