@@ -10,13 +10,14 @@ use photondiff::render::defaults::RenderDefaults;
 #[derive(clap::Args, Debug, Clone)]
 pub struct PhotonArgs {
     /// Photons stored in the global map (indirect light; in a render, each pass's); emission
-    /// stops at 4 emissions per photon asked for, and the statistics say if fewer were stored (a warning
-    /// too when N is given here; a default count is an "up to" count). Default 50,000 for
-    /// `integrated` (the default estimator), 100,000 (the thesis's count) for the others.
+    /// stops at 4 emissions per photon asked for, and the statistics say if fewer were stored
+    /// (a warning too when N is given here; a default count is an "up to" count). Default
+    /// 50,000 for `integrated` (the default estimator), 100,000 (the thesis's count) for the
+    /// others.
     #[arg(long = "photons", value_name = "N", value_parser = super::photon_count)]
     pub global_photons: Option<usize>,
-    /// Photons stored in the caustic map (in a render, each pass's). Default 60,000 for `integrated` (the
-    /// default estimator) and 20,000 (the thesis's count) for the others.
+    /// Photons stored in the caustic map (in a render, each pass's). Default 60,000 for
+    /// `integrated` (the default estimator) and 20,000 (the thesis's count) for the others.
     #[arg(long, value_name = "N", value_parser = super::photon_count)]
     pub caustic_photons: Option<usize>,
     /// Photon footprint size, as the expected number of footprints covering a point.

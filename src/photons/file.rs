@@ -244,13 +244,14 @@ pub fn check(path: &Path, options: &PhotonOptions) -> Result<(), String> {
         .take(16)
         .read_to_end(&mut start)
         .map_err(cannot)?;
-    let header_len =
-        |start: &[u8]| u64::from(u32::from_le_bytes(start[12..16].try_into().expect("4")));
+    let announced = match start.get(12..16) {
+        Some(b) => u64::from(u32::from_le_bytes(b.try_into().expect("4 bytes"))),
+        None => 0,
+    };
     // (A header longer than the file is refused as truncated by `header` without reading.)
-    if start.len() == 16 && &start[..8] == MAGIC && 16 + header_len(&start) <= len {
-        let header_len = header_len(&start);
+    if start.len() == 16 && &start[..8] == MAGIC && 16 + announced <= len {
         (&mut file)
-            .take(header_len)
+            .take(announced)
             .read_to_end(&mut start)
             .map_err(cannot)?;
     }
