@@ -190,25 +190,44 @@ fn a_ten_million_triangle_mesh_takes_at_most_100_bytes_a_triangle_at_peak() {
     );
 }
 
-/// `photons` and `reference` take `render`'s BVH options, and what they trace does not depend
-/// on them: the same photon maps to the byte, the same reference to the bit.
+/// `photons` and `reference` take `render`'s BVH options, build the BVH they ask for (as their
+/// memory line says), and what they trace does not depend on them: the same photon maps to the
+/// byte, the same reference to the bit.
 #[test]
 fn photons_and_reference_take_the_bvh_options_and_trace_the_same() {
     let dir = tempfile::tempdir().unwrap();
     let path = scene(dir.path());
+    // The BVH each run built, from its memory line (`... Embree BVH 0.1 MB (high, compact;
+    // build peak ...)`), which only a run without --quiet prints.
     let run = |args: &[&str]| {
-        common::run_ok(args.iter().copied().chain([path.to_str().unwrap(), "-q"]));
+        let out = common::run_ok(args.iter().copied().chain([path.to_str().unwrap()]));
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        let memory = stderr
+            .lines()
+            .find(|l| l.starts_with("memory: peak resident "))
+            .unwrap_or_else(|| panic!("no memory line in {stderr}"));
+        let settings = memory.split("Embree BVH ").nth(1).unwrap();
+        settings[settings.find('(').unwrap() + 1..settings.find(';').unwrap()].to_string()
     };
     let file = |name: &str| dir.path().join(name).to_str().unwrap().to_string();
     let options = ["--bvh-quality", "high", "--bvh-compact"];
     let (plain, other) = (file("plain.pdm"), file("other.pdm"));
-    run(&["photons", "-o", &plain]);
-    run(&[&["photons", "-o", &other][..], &options].concat());
+    assert_eq!(run(&["photons", "-o", &plain]), "medium");
+    assert_eq!(
+        run(&[&["photons", "-o", &other][..], &options].concat()),
+        "high, compact"
+    );
     assert!(std::fs::read(&plain).unwrap() == std::fs::read(&other).unwrap());
     let paths = ["--light-paths", "131072", "--caustic-paths", "131072"];
     let (plain, other) = (file("plain.exr"), file("other.exr"));
-    run(&[&["reference", "-o", &plain][..], &paths].concat());
-    run(&[&["reference", "-o", &other][..], &paths, &options].concat());
+    assert_eq!(
+        run(&[&["reference", "-o", &plain][..], &paths].concat()),
+        "medium"
+    );
+    assert_eq!(
+        run(&[&["reference", "-o", &other][..], &paths, &options].concat()),
+        "high, compact"
+    );
     let pixels = |f: &str| {
         photondiff::render::part::read_part(Path::new(f))
             .unwrap()

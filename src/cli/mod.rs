@@ -68,6 +68,15 @@ pub fn photon_count(text: &str) -> Result<usize, String> {
 /// against 2,000,000 caustic photons, 53 MB against 1.42 GB.
 pub const PEAK_BYTES_PER_PHOTON: u64 = 700;
 
+/// Prints `memory` (its peak recorded now) on standard error as `render`'s statistics do,
+/// unless `quiet`: `photons` and `reference` build the same BVH and hold the same meshes.
+pub fn print_memory(memory: &mut photondiff::render::stats::MemoryStats, quiet: bool) {
+    if !quiet {
+        memory.record_peak();
+        eprintln!("{}", memory.summary());
+    }
+}
+
 /// Warns, before the photons are traced, when maps of `photons` stored photons may not fit in
 /// this machine's memory (a run asked for 4 * 10^9 grew by 11 MB/s for minutes without a
 /// word). A warning, not an error: an open scene stores far fewer global photons than asked.

@@ -7,7 +7,7 @@ use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
 use photondiff::photons::trace::TraceCounts;
 use photondiff::render::defaults::RenderDefaults;
-use photondiff::render::stats::Stats;
+use photondiff::render::stats::{MemoryStats, Stats};
 use photondiff::render::trace_photon_maps;
 use photondiff::scene::hash::scene_hash;
 use std::path::PathBuf;
@@ -56,7 +56,8 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     let options = args.photons.options(&defaults, args.seed)?;
     let scene = super::load_scene(&args.scene, !args.quiet)?;
     let hash = scene_hash(&args.scene)?;
-    let (_, embree, _) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
+    let (device, embree, bvh) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
+    let mut memory = MemoryStats::after_build(&scene, &device, bvh);
     super::warn_photon_memory(
         &args.scene,
         options.global_photons + options.caustic_photons,
@@ -100,5 +101,6 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
             String::new()
         }
     );
+    super::print_memory(&mut memory, args.quiet);
     Ok(())
 }

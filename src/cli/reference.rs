@@ -7,6 +7,7 @@ use photondiff::reference::light_tracer::MAX_PATHS;
 use photondiff::reference::metrics::Regions;
 use photondiff::render::film::Film;
 use photondiff::render::part::{read_part, Part};
+use photondiff::render::stats::MemoryStats;
 use photondiff::scene::hash::{hex, scene_hash};
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -203,7 +204,8 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         false => Some(read_parts(&args.merge)?),
     };
     let scene = super::load_scene(&args.scene, !args.quiet)?;
-    let (_, embree, _) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
+    let (device, embree, bvh) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
+    let memory = MemoryStats::after_build(&scene, &device, bvh);
     let hash = hex(scene_hash(&args.scene)?);
     if let Some(parts) = parts {
         parts.check_scene(&hash)?;
@@ -212,7 +214,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
             (META_KEY.to_string(), parts.meta),
             (SCENE_KEY.to_string(), hash),
         ];
-        return write(args, &scene, &embree, &reference, &meta, None);
+        return write(args, &scene, &embree, &reference, &meta, None, memory);
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
@@ -237,10 +239,19 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         (META_KEY.to_string(), settings.tag()),
         (SCENE_KEY.to_string(), hash),
     ];
-    write(args, &scene, &embree, &reference, &meta, Some(seconds))
+    write(
+        args,
+        &scene,
+        &embree,
+        &reference,
+        &meta,
+        Some(seconds),
+        memory,
+    )
 }
 
-/// Writes the reference and its halves and prints its noise per region.
+/// Writes the reference and its halves and prints its noise per region, then (unless
+/// `--quiet`) the run's `memory`.
 fn write(
     args: &ReferenceArgs,
     scene: &Scene,
@@ -248,6 +259,7 @@ fn write(
     reference: &Reference,
     meta: &[(String, String)],
     seconds: Option<f64>,
+    mut memory: MemoryStats,
 ) -> Result<(), String> {
     let regions = Regions::new(scene, embree, &reference.film);
     create_parent(&args.output)?;
@@ -281,5 +293,6 @@ fn write(
         half("a").display(),
         half("b").display()
     );
+    super::print_memory(&mut memory, args.quiet);
     Ok(())
 }

@@ -10,7 +10,7 @@ use photondiff::render::defaults::RenderDefaults;
 use photondiff::render::film::Film;
 use photondiff::render::pass_part::write_pass_part;
 use photondiff::render::passes::{pass_photons, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
-use photondiff::render::stats::Stats;
+use photondiff::render::stats::{MemoryStats, Stats};
 use photondiff::render::{load_photon_maps, Progressive, RenderOptions, Window};
 use photondiff::scene::hash::scene_hash;
 use photondiff::scene::Scene;
@@ -267,12 +267,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let (device, embree, bvh) = stats.time("build BVH", || {
         args.bvh.build(&scene, &args.scene, !args.quiet)
     })?;
-    stats.memory.triangles = scene.triangle_count();
-    stats.memory.placed_triangles = scene.placed_triangle_count();
-    stats.memory.mesh_bytes = scene.mesh_bytes();
-    stats.memory.bvh = bvh;
-    stats.memory.bvh_bytes = device.memory().current;
-    stats.memory.bvh_build_peak_bytes = device.memory().peak;
+    stats.memory = MemoryStats::after_build(&scene, &device, bvh);
     let options = RenderOptions::default()
         .with_view_grid(args.view_grid)
         .with_edge_grid(

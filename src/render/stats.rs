@@ -100,6 +100,43 @@ pub struct MemoryStats {
 }
 
 impl MemoryStats {
+    /// The memory of `scene`'s meshes and of the BVH Embree built for it on `device` with
+    /// `bvh`; the peak resident memory is left for [`Self::record_peak`] at the end of the run.
+    pub fn after_build(
+        scene: &crate::scene::Scene,
+        device: &crate::embree::Device,
+        bvh: crate::embree::BvhSettings,
+    ) -> Self {
+        let embree = device.memory();
+        Self {
+            triangles: scene.triangle_count(),
+            placed_triangles: scene.placed_triangle_count(),
+            mesh_bytes: scene.mesh_bytes(),
+            bvh_bytes: embree.current,
+            bvh_build_peak_bytes: embree.peak,
+            bvh,
+            ..Self::default()
+        }
+    }
+
+    /// The statistics' memory line (without its indent): the peak, per triangle, and where it
+    /// went.
+    pub fn summary(&self) -> String {
+        let mb = |b: u64| b as f64 / 1e6;
+        format!(
+            "memory: peak resident {:.1} MB ({:.0} bytes/triangle over {} unique triangles, \
+             {} placed); meshes {:.1} MB, Embree BVH {:.1} MB ({}; build peak {:.1} MB)",
+            mb(self.peak_resident_bytes),
+            self.peak_bytes_per_triangle,
+            self.triangles,
+            self.placed_triangles,
+            mb(self.mesh_bytes),
+            mb(self.bvh_bytes),
+            self.bvh,
+            mb(self.bvh_build_peak_bytes)
+        )
+    }
+
     /// Records the process's peak resident memory now (call at the end of the run).
     pub fn record_peak(&mut self) {
         self.peak_resident_bytes = crate::util::memory::peak_resident_bytes();
@@ -222,21 +259,8 @@ impl Stats {
         if let Some(w) = self.mesh_repairs.warning() {
             out += &format!("  meshes: {w}\n");
         }
-        let m = &self.memory;
-        if m.peak_resident_bytes > 0 {
-            let mb = |b: u64| b as f64 / 1e6;
-            out += &format!(
-                "  memory: peak resident {:.1} MB ({:.0} bytes/triangle over {} unique triangles, \
-                 {} placed); meshes {:.1} MB, Embree BVH {:.1} MB ({}; build peak {:.1} MB)\n",
-                mb(m.peak_resident_bytes),
-                m.peak_bytes_per_triangle,
-                m.triangles,
-                m.placed_triangles,
-                mb(m.mesh_bytes),
-                mb(m.bvh_bytes),
-                m.bvh,
-                mb(m.bvh_build_peak_bytes)
-            );
+        if self.memory.peak_resident_bytes > 0 {
+            out += &format!("  {}\n", self.memory.summary());
         }
         let render = self.seconds("render");
         let r = &self.rays;
