@@ -141,3 +141,112 @@ fn an_unwritable_trace_path_is_a_one_line_error_before_rendering() {
     );
     assert!(!dir.path().join("a.exr").exists());
 }
+
+/// `photons --trace --stats-json`: a span per stage and per map (each map's within the tracing
+/// stage), and statistics that agree with what the command printed.
+#[test]
+fn photons_trace_their_stages_and_maps_and_write_their_statistics() {
+    let dir = tempfile::tempdir().unwrap();
+    let (trace, stats) = (
+        dir.path().join("t/trace.json"),
+        dir.path().join("s/stats.json"),
+    );
+    let out = Command::new(EXE)
+        .args([
+            "photons",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
+            "--caustic-photons",
+            "3000",
+            "--photons",
+            "2000",
+            "-o",
+        ])
+        .arg(dir.path().join("maps.pdm"))
+        .arg("--trace")
+        .arg(&trace)
+        .arg("--stats-json")
+        .arg(&stats)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(stderr.contains("memory: peak resident "), "{stderr}");
+    let json: Value = serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+    let spans: Vec<&Value> = json["traceEvents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["ph"] == "X")
+        .collect();
+    let span = |name: &str| {
+        let found: Vec<&&Value> = spans.iter().filter(|e| e["name"] == name).collect();
+        assert_eq!(found.len(), 1, "{name}");
+        let start = found[0]["ts"].as_f64().unwrap();
+        (start, start + found[0]["dur"].as_f64().unwrap())
+    };
+    let tracing = span("trace photons");
+    for map in ["caustic map", "global map"] {
+        let (start, end) = span(map);
+        assert!(start >= tracing.0 && end <= tracing.1 + 1.0, "{map}");
+    }
+    assert!(span("load scene").1 <= span("build BVH").0 + 1.0);
+    assert!(tracing.1 <= span("write photon maps").0 + 1.0);
+    assert_eq!(spans.len(), 6);
+    // The statistics: the stages in order, the maps' photons as printed, the BVH built.
+    let stats: Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let stages: Vec<&str> = stats["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        stages,
+        [
+            "load scene",
+            "build BVH",
+            "trace photons",
+            "write photon maps"
+        ]
+    );
+    let stored = |k: usize| stats["photon_maps"][k]["stored"].as_u64().unwrap();
+    assert_eq!(stored(0), 3000);
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        format!(
+            "wrote {}: 3000 caustic and {} global photons\n",
+            dir.path().join("maps.pdm").display(),
+            stored(1)
+        )
+    );
+    assert_eq!(stats["memory"]["bvh"]["quality"], "medium");
+    assert!(stats["memory"]["peak_resident_bytes"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn an_unwritable_photons_trace_path_is_a_one_line_error_before_tracing() {
+    let dir = tempfile::tempdir().unwrap();
+    let blocker = dir.path().join("file");
+    std::fs::write(&blocker, "").unwrap();
+    let maps = dir.path().join("maps.pdm");
+    let out = Command::new(EXE)
+        .args([
+            "photons",
+            concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
+        ])
+        .arg("-o")
+        .arg(&maps)
+        .arg("--trace")
+        .arg(blocker.join("trace.json"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        format!(
+            "photondiff: error: --trace: {}: cannot create folder: File exists (os error 17)\n",
+            blocker.display()
+        )
+    );
+    assert!(!maps.exists());
+}

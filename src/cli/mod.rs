@@ -68,6 +68,34 @@ pub fn photon_count(text: &str) -> Result<usize, String> {
 /// against 2,000,000 caustic photons, 53 MB against 1.42 GB.
 pub const PEAK_BYTES_PER_PHOTON: u64 = 700;
 
+/// Starts recording the trace `--trace` asks for, if it does: its folder is made now, so that
+/// an unwritable path is refused before the work rather than after it.
+pub fn start_trace(trace: Option<&Path>) -> Result<(), String> {
+    if let Some(path) = trace {
+        create_parent(path)?;
+        photondiff::util::trace::enable();
+    }
+    Ok(())
+}
+
+/// Writes the trace (`--trace`) and the statistics as JSON (`--stats-json`) where asked for,
+/// at the end of a run.
+pub fn write_trace_and_stats(
+    trace: Option<&Path>,
+    stats_json: Option<&Path>,
+    stats: &photondiff::render::stats::Stats,
+) -> Result<(), String> {
+    if let Some(path) = trace {
+        photondiff::util::trace::write(path).map_err(|e| format!("--trace: {e}"))?;
+    }
+    if let Some(path) = stats_json {
+        create_parent(path)?;
+        let json = serde_json::to_string_pretty(stats).map_err(|e| e.to_string())?;
+        photondiff::util::atomic::write_bytes(path, json.as_bytes())?;
+    }
+    Ok(())
+}
+
 /// Prints `memory` (its peak recorded now) on standard error as `render`'s statistics do,
 /// unless `quiet`: `photons` and `reference` build the same BVH and hold the same meshes.
 pub fn print_memory(memory: &mut photondiff::render::stats::MemoryStats, quiet: bool) {

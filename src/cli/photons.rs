@@ -34,7 +34,15 @@ pub struct PhotonsArgs {
     threads: usize,
     #[command(flatten)]
     bvh: super::bvh::BvhArgs,
-    /// No progress bar.
+    /// Write the run's statistics (times per stage, each map's emissions, photons and rays,
+    /// memory) as JSON to FILE, in `render --stats-json`'s shape.
+    #[arg(long, value_name = "FILE")]
+    stats_json: Option<PathBuf>,
+    /// Write a trace for profiling to FILE: Chrome trace-event JSON with spans per stage and
+    /// per map; open it in Perfetto (ui.perfetto.dev) or chrome://tracing.
+    #[arg(long, value_name = "FILE")]
+    trace: Option<PathBuf>,
+    /// No progress bar and no memory line.
     #[arg(short, long)]
     quiet: bool,
 }
@@ -42,7 +50,10 @@ pub struct PhotonsArgs {
 /// Runs `photondiff photons`.
 pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     super::check_threads(args.threads)?;
-    super::check_outputs(&[("-o", &args.output)], &[("scene", &args.scene)])?;
+    let mut outputs = vec![("-o", args.output.as_path())];
+    outputs.extend(args.stats_json.as_deref().map(|p| ("--stats-json", p)));
+    outputs.extend(args.trace.as_deref().map(|p| ("--trace", p)));
+    super::check_outputs(&outputs, &[("scene", &args.scene)])?;
     if matches!(
         args.estimator,
         EstimatorKind::Direct | EstimatorKind::Lighttrace
@@ -54,15 +65,21 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     }
     let defaults = RenderDefaults::for_estimator(args.estimator);
     let options = args.photons.options(&defaults, args.seed)?;
-    let scene = super::load_scene(&args.scene, !args.quiet)?;
+    super::start_trace(args.trace.as_deref())?;
+    let mut stats = Stats {
+        embree: photondiff::embree::BACKEND.to_string(),
+        ..Stats::default()
+    };
+    let scene = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
     let hash = scene_hash(&args.scene)?;
-    let (device, embree, bvh) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
-    let mut memory = MemoryStats::after_build(&scene, &device, bvh);
+    let (device, embree, bvh) = stats.time("build BVH", || {
+        args.bvh.build(&scene, &args.scene, !args.quiet)
+    })?;
+    stats.memory = MemoryStats::after_build(&scene, &device, bvh);
     super::warn_photon_memory(
         &args.scene,
         options.global_photons + options.caustic_photons,
     );
-    let mut stats = Stats::default();
     let progress = !args.quiet;
     let maps = trace_photon_maps(
         &scene,
@@ -86,8 +103,12 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
             rays: m.rays,
         }
     });
-    create_parent(&args.output)?;
-    file::write(&args.output, &maps, &counts, hash, &options)?;
+    stats.time("write photon maps", || {
+        create_parent(&args.output)?;
+        file::write(&args.output, &maps, &counts, hash, &options)
+    })?;
+    stats.memory.record_peak();
+    super::write_trace_and_stats(args.trace.as_deref(), args.stats_json.as_deref(), &stats)?;
     // Stored photons, as the statistics count them; mirror photons at walls apart.
     let mirrors = maps.caustic.guards.mirrored + maps.global.guards.mirrored;
     println!(
@@ -101,6 +122,8 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
             String::new()
         }
     );
-    super::print_memory(&mut memory, args.quiet);
+    if !args.quiet {
+        eprintln!("{}", stats.memory.summary());
+    }
     Ok(())
 }

@@ -243,11 +243,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         photondiff::photons::file::check(path, &pass0)?;
     }
     let mut range_sum = None;
-    if let Some(path) = &args.trace {
-        // Refuse an unwritable path now rather than after the render.
-        create_parent(path)?;
-        photondiff::util::trace::enable();
-    }
+    super::start_trace(args.trace.as_deref())?;
     let mut stats = Stats {
         embree: photondiff::embree::BACKEND.to_string(),
         ..Stats::default()
@@ -379,14 +375,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         film.write_png(&png)
     })?;
     stats.memory.record_peak();
-    if let Some(path) = &args.trace {
-        photondiff::util::trace::write(path).map_err(|e| format!("--trace: {e}"))?;
-    }
-    if let Some(path) = &args.stats_json {
-        create_parent(path)?;
-        let json = serde_json::to_string_pretty(&stats).map_err(|e| e.to_string())?;
-        photondiff::util::atomic::write_bytes(path, json.as_bytes())?;
-    }
+    super::write_trace_and_stats(args.trace.as_deref(), args.stats_json.as_deref(), &stats)?;
     if !args.quiet {
         eprint!("{}", stats.summary());
     }

@@ -33,6 +33,9 @@ pub fn trace_photon_maps(
     // a stage of its own ("radiance map"), so that its cost shows.
     let (caustic, global, counts) = stats.time("trace photons", || {
         pool.install(|| {
+            // Each map a span of its own in the trace (`--trace`): they differ in cost by
+            // orders of magnitude from scene to scene.
+            let span = crate::util::trace::span("caustic map");
             let caustic_emitter = Emitter::caustic(
                 scene,
                 options.caustic_photons,
@@ -45,6 +48,8 @@ pub fn trace_photon_maps(
                 StopRule::Stored(options.caustic_photons),
                 &bar,
             );
+            drop(span);
+            let _span = crate::util::trace::span("global map");
             let global_emitter = Emitter::global_aimed(
                 scene,
                 options.global_photons,
