@@ -66,10 +66,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     let defaults = RenderDefaults::for_estimator(args.estimator);
     let options = args.photons.options(&defaults, args.seed)?;
     super::start_trace(args.trace.as_deref())?;
-    let mut stats = Stats {
-        embree: photondiff::embree::BACKEND.to_string(),
-        ..Stats::default()
-    };
+    let mut stats = Stats::of_this_build();
     let scene = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
     let hash = scene_hash(&args.scene)?;
     let (device, embree, bvh) = stats.time("build BVH", || {

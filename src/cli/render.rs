@@ -244,10 +244,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     let mut range_sum = None;
     super::start_trace(args.trace.as_deref())?;
-    let mut stats = Stats {
-        embree: photondiff::embree::BACKEND.to_string(),
-        ..Stats::default()
-    };
+    let mut stats = Stats::of_this_build();
     let scene = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
     let hash = scene_hash(&args.scene)?;
     let (width, height) = (scene.camera.width, scene.camera.height);

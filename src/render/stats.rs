@@ -187,6 +187,14 @@ impl MapStats {
 }
 
 impl Stats {
+    /// Empty statistics of a run on this build's Embree ([`crate::embree::BACKEND`]).
+    pub fn of_this_build() -> Self {
+        Self {
+            embree: crate::embree::BACKEND.to_string(),
+            ..Self::default()
+        }
+    }
+
     /// Runs `f`, recording its wall-clock time as stage `name`.
     pub fn time<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
         let _span = crate::util::trace::span(name.to_string());
