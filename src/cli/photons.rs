@@ -119,8 +119,6 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
             String::new()
         }
     );
-    if !args.quiet {
-        eprintln!("{}", stats.memory.summary());
-    }
+    super::print_memory(&mut stats.memory, args.quiet);
     Ok(())
 }
