@@ -247,6 +247,7 @@ fn gathering_through_glass_brings_the_light_of_the_spheres_shadow() {
     use photondiff::embree::Device;
     use photondiff::reference::cache::{make, ReferenceSettings};
     use photondiff::reference::metrics::Regions;
+    use photondiff::render::stats::Stats;
     use photondiff::scene::file::parse_scene;
 
     let dir = tempfile::tempdir().unwrap();
@@ -260,7 +261,15 @@ fn gathering_through_glass_brings_the_light_of_the_spheres_shadow() {
         direct_grids: [2, 3],
         seed: 0,
     };
-    let reference = make(&scene, &embree, &settings, false, &mut |_| ()).unwrap();
+    let reference = make(
+        &scene,
+        &embree,
+        &settings,
+        false,
+        &mut |_| (),
+        &mut Stats::default(),
+    )
+    .unwrap();
     let shadow = Regions::new(&scene, &embree, &reference.film).shadow;
     assert!(shadow.len() > 1000, "{} shadow pixels", shadow.len());
     let region_mean = |film: &Film| mean_over(film, &shadow);

@@ -120,6 +120,7 @@ fn region_mean(film: &photondiff::render::film::Film, pixels: &[usize]) -> f64 {
 fn split_reference_agrees_with_plain_light_tracing_and_is_less_noisy() {
     use photondiff::reference::cache::{make, ReferenceSettings};
     use photondiff::reference::metrics::Regions;
+    use photondiff::render::stats::Stats;
     let scene = canonical(80, 60);
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
@@ -143,7 +144,16 @@ fn split_reference_agrees_with_plain_light_tracing_and_is_less_noisy() {
         seed: 0,
     };
     let split = pool
-        .install(|| make(&scene, &embree, &settings, false, &mut |_| {}))
+        .install(|| {
+            make(
+                &scene,
+                &embree,
+                &settings,
+                false,
+                &mut |_| {},
+                &mut Stats::default(),
+            )
+        })
         .unwrap();
     let regions = Regions::new(&scene, &embree, &split.film);
     for (name, pixels) in [

@@ -113,35 +113,6 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
     }
 }
 
-#[test]
-fn an_unwritable_trace_path_is_a_one_line_error_before_rendering() {
-    let dir = tempfile::tempdir().unwrap();
-    let blocker = dir.path().join("file");
-    std::fs::write(&blocker, "").unwrap();
-    let out = Command::new(EXE)
-        .args([
-            "render",
-            concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
-        ])
-        .arg("-o")
-        .arg(dir.path().join("a.exr"))
-        .arg("--trace")
-        .arg(blocker.join("trace.json"))
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert_eq!(stderr.lines().count(), 1, "{stderr}");
-    assert_eq!(
-        stderr,
-        format!(
-            "photondiff: error: --trace: {}: cannot create folder: File exists (os error 17)\n",
-            blocker.display()
-        )
-    );
-    assert!(!dir.path().join("a.exr").exists());
-}
-
 /// `photons --trace --stats-json`: a span per stage and per map (each map's within the tracing
 /// stage), and statistics that agree with what the command printed.
 #[test]
@@ -223,30 +194,150 @@ fn photons_trace_their_stages_and_maps_and_write_their_statistics() {
     assert!(stats["memory"]["peak_resident_bytes"].as_u64().unwrap() > 0);
 }
 
+/// `render`, `photons` and `reference` alike: an unwritable `--trace` path is one line on stderr, exit 1,
+/// and nothing is rendered or traced (the command's output is not written).
 #[test]
-fn an_unwritable_photons_trace_path_is_a_one_line_error_before_tracing() {
+fn an_unwritable_trace_path_is_a_one_line_error_before_any_work() {
+    let commands = [
+        ("render", "a.exr"),
+        ("photons", "maps.pdm"),
+        ("reference", "ref.exr"),
+    ];
+    for (command, output) in commands {
+        let dir = tempfile::tempdir().unwrap();
+        let blocker = dir.path().join("file");
+        std::fs::write(&blocker, "").unwrap();
+        let output = dir.path().join(output);
+        let out = Command::new(EXE)
+            .args([
+                command,
+                concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
+            ])
+            .arg("-o")
+            .arg(&output)
+            .arg("--trace")
+            .arg(blocker.join("trace.json"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{command}: {stderr}");
+        assert_eq!(
+            stderr,
+            format!(
+                "photondiff: error: --trace: {}: cannot create folder: File exists (os error 17)\n",
+                blocker.display()
+            ),
+            "{command}"
+        );
+        assert!(!output.exists(), "{command} wrote {}", output.display());
+    }
+}
+
+/// `reference --trace --stats-json`: a span per stage, the light tracing's chunks of paths
+/// within its stage, and statistics holding the camera rays the grids cast and the noise per
+/// region that standard output printed.
+#[test]
+fn reference_traces_its_stages_and_writes_its_noise_per_region() {
     let dir = tempfile::tempdir().unwrap();
-    let blocker = dir.path().join("file");
-    std::fs::write(&blocker, "").unwrap();
-    let maps = dir.path().join("maps.pdm");
+    let (trace, stats) = (dir.path().join("t.json"), dir.path().join("s.json"));
     let out = Command::new(EXE)
         .args([
-            "photons",
+            "reference",
             concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
+            "--light-paths",
+            "131072",
+            "--caustic-paths",
+            "131072",
+            "--direct-grids",
+            "1,2",
+            "--quiet",
         ])
         .arg("-o")
-        .arg(&maps)
+        .arg(dir.path().join("ref.exr"))
         .arg("--trace")
-        .arg(blocker.join("trace.json"))
+        .arg(&trace)
+        .arg("--stats-json")
+        .arg(&stats)
         .output()
         .unwrap();
-    assert_eq!(out.status.code(), Some(1));
-    assert_eq!(
-        String::from_utf8_lossy(&out.stderr),
-        format!(
-            "photondiff: error: --trace: {}: cannot create folder: File exists (os error 17)\n",
-            blocker.display()
-        )
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
-    assert!(!maps.exists());
+    let stats: Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let stages: Vec<&str> = stats["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    let expected = [
+        "load scene",
+        "build BVH",
+        "direct light, half A",
+        "direct light, half B",
+        "light tracing",
+        "write images",
+    ];
+    assert_eq!(stages, expected);
+    // 1 x 1 and 2 x 2 camera rays a pixel of 640 x 480; two chunks of 65,536 paths a set.
+    assert_eq!(stats["rays"]["camera"], 640 * 480 * (1 + 4));
+    assert_eq!(stats["light_paths"], 262_144);
+    assert!(stats["light_rays"].as_u64().unwrap() > 262_144);
+    // The noise per region, as printed: each line of standard output from the JSON's numbers.
+    let regions = stats["reference_regions"].as_array().unwrap();
+    let names: Vec<&str> = regions
+        .iter()
+        .map(|r| r["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["floor", "caustic", "contour", "shadow"]);
+    for r in regions {
+        let line = format!(
+            "  {:8} {:7} px  {:.4}",
+            r["name"].as_str().unwrap(),
+            r["pixels"].as_u64().unwrap(),
+            r["relative_noise"].as_f64().unwrap()
+        );
+        assert!(
+            stdout.lines().any(|l| l == line),
+            "{line:?} not in {stdout}"
+        );
+    }
+    let noise = stats["reference_noise"].as_f64().unwrap();
+    assert!(noise > 0.0 && noise.is_finite());
+    // The trace: each stage once, in order, and the four chunks of paths inside the tracing.
+    let trace: Value = serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+    let spans: Vec<&Value> = trace["traceEvents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["ph"] == "X")
+        .collect();
+    let interval = |e: &Value| {
+        let start = e["ts"].as_f64().unwrap();
+        (start, start + e["dur"].as_f64().unwrap())
+    };
+    let stage_spans: Vec<(f64, f64)> = expected
+        .iter()
+        .map(|name| {
+            let found: Vec<_> = spans.iter().filter(|e| e["name"] == *name).collect();
+            assert_eq!(found.len(), 1, "{name}");
+            interval(found[0])
+        })
+        .collect();
+    for pair in stage_spans.windows(2) {
+        assert!(pair[0].1 <= pair[1].0 + 1.0, "{pair:?}");
+    }
+    let tracing = stage_spans[4];
+    let chunks: Vec<(f64, f64)> = spans
+        .iter()
+        .filter(|e| e["name"] == "light paths")
+        .map(|e| interval(e))
+        .collect();
+    assert_eq!(chunks.len(), 4);
+    for (start, end) in chunks {
+        assert!(start >= tracing.0 && end <= tracing.1 + 1.0);
+    }
 }

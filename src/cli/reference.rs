@@ -7,7 +7,7 @@ use photondiff::reference::light_tracer::MAX_PATHS;
 use photondiff::reference::metrics::Regions;
 use photondiff::render::film::Film;
 use photondiff::render::part::{read_part, Part};
-use photondiff::render::stats::MemoryStats;
+use photondiff::render::stats::{MemoryStats, RegionNoise, Stats};
 use photondiff::scene::hash::{hex, scene_hash};
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -51,6 +51,15 @@ pub struct ReferenceArgs {
     merge: Vec<PathBuf>,
     #[command(flatten)]
     bvh: super::bvh::BvhArgs,
+    /// Write the run's statistics as JSON to FILE, in `render --stats-json`'s shape: times per
+    /// stage (each half's direct light, the light tracing), rays, light paths, memory, and the
+    /// noise per region that standard output prints (`reference_regions`).
+    #[arg(long, value_name = "FILE")]
+    stats_json: Option<PathBuf>,
+    /// Write a trace for profiling to FILE: Chrome trace-event JSON with spans per stage and
+    /// per tile of the direct light; open it in Perfetto (ui.perfetto.dev) or chrome://tracing.
+    #[arg(long, value_name = "FILE")]
+    trace: Option<PathBuf>,
     /// No stage messages and no progress (standard output still reports the noise).
     #[arg(short, long)]
     quiet: bool,
@@ -163,11 +172,13 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     // The reference and its two halves, none of them the scene or a part being merged (or a
     // part's halves, which are read too).
     let (a, b) = (half_path(&args.output, "a"), half_path(&args.output, "b"));
-    let outputs = [
+    let mut outputs = vec![
         ("-o", args.output.as_path()),
         ("-o's half a", &a),
         ("-o's half b", &b),
     ];
+    outputs.extend(args.stats_json.as_deref().map(|p| ("--stats-json", p)));
+    outputs.extend(args.trace.as_deref().map(|p| ("--trace", p)));
     let halves: Vec<PathBuf> = args
         .merge
         .iter()
@@ -194,27 +205,35 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
             ))
         }
     };
+    if args.merge.is_empty() && args.light_paths == 0 && args.caustic_paths == 0 {
+        return Err("--light-paths and --caustic-paths cannot both be 0".into());
+    }
+    super::start_trace(args.trace.as_deref())?;
+    let mut stats = Stats::of_this_build();
     // What needs no scene is checked (and the parts read) before the scene is read: a large
     // one takes seconds to load and build.
     let parts = match args.merge.is_empty() {
-        true if args.light_paths == 0 && args.caustic_paths == 0 => {
-            return Err("--light-paths and --caustic-paths cannot both be 0".into());
-        }
         true => None,
-        false => Some(read_parts(&args.merge)?),
+        false => Some(stats.time("read references", || read_parts(&args.merge))?),
     };
-    let scene = super::load_scene(&args.scene, !args.quiet)?;
-    let (device, embree, bvh) = args.bvh.build(&scene, &args.scene, !args.quiet)?;
-    let memory = MemoryStats::after_build(&scene, &device, bvh);
+    let scene = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
+    let (device, embree, bvh) = stats.time("build BVH", || {
+        args.bvh.build(&scene, &args.scene, !args.quiet)
+    })?;
+    stats.memory = MemoryStats::after_build(&scene, &device, bvh);
     let hash = hex(scene_hash(&args.scene)?);
     if let Some(parts) = parts {
         parts.check_scene(&hash)?;
-        let reference = merge(&parts.references)?;
-        let meta = vec![
-            (META_KEY.to_string(), parts.meta),
-            (SCENE_KEY.to_string(), hash),
-        ];
-        return write(args, &scene, &embree, &reference, &meta, None, memory);
+        let reference = stats.time("merge", || merge(&parts.references))?;
+        let made = Made {
+            reference,
+            meta: vec![
+                (META_KEY.to_string(), parts.meta),
+                (SCENE_KEY.to_string(), hash),
+            ],
+            seconds: None,
+        };
+        return write(args, &scene, &embree, &made, stats);
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
@@ -228,64 +247,88 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     };
     let start = std::time::Instant::now();
     let reference = pool.install(|| {
-        make(&scene, &embree, &settings, !args.quiet, &mut |m| {
+        let mut log = |m: &str| {
             if !args.quiet {
                 eprintln!("{m}")
             }
-        })
+        };
+        make(
+            &scene,
+            &embree,
+            &settings,
+            !args.quiet,
+            &mut log,
+            &mut stats,
+        )
     })?;
-    let seconds = start.elapsed().as_secs_f64();
-    let meta = vec![
-        (META_KEY.to_string(), settings.tag()),
-        (SCENE_KEY.to_string(), hash),
-    ];
-    write(
-        args,
-        &scene,
-        &embree,
-        &reference,
-        &meta,
-        Some(seconds),
-        memory,
-    )
+    let made = Made {
+        reference,
+        meta: vec![
+            (META_KEY.to_string(), settings.tag()),
+            (SCENE_KEY.to_string(), hash),
+        ],
+        seconds: Some(start.elapsed().as_secs_f64()),
+    };
+    write(args, &scene, &embree, &made, stats)
 }
 
-/// Writes the reference and its halves and prints its noise per region, then (unless
-/// `--quiet`) the run's `memory`.
+/// A reference made or merged, ready to be written.
+struct Made {
+    reference: Reference,
+    /// Its EXR attributes.
+    meta: Vec<(String, String)>,
+    /// How long making it took (`None` for a merge).
+    seconds: Option<f64>,
+}
+
+/// Writes the reference and its halves, prints its noise per region, writes `--trace` and
+/// `--stats-json` (with the noise in `stats`), then (unless `--quiet`) the run's memory.
 fn write(
     args: &ReferenceArgs,
     scene: &Scene,
     embree: &photondiff::embree::Scene,
-    reference: &Reference,
-    meta: &[(String, String)],
-    seconds: Option<f64>,
-    mut memory: MemoryStats,
+    made: &Made,
+    mut stats: Stats,
 ) -> Result<(), String> {
+    let (reference, meta) = (&made.reference, &made.meta);
     let regions = Regions::new(scene, embree, &reference.film);
-    create_parent(&args.output)?;
     let half = |s: &str| half_path(&args.output, s);
-    reference.film.write_exr(&args.output, meta)?;
-    reference.half_a.write_exr(&half("a"), meta)?;
-    reference.half_b.write_exr(&half("b"), meta)?;
-    match seconds {
+    stats.time("write images", || -> Result<(), String> {
+        create_parent(&args.output)?;
+        reference.film.write_exr(&args.output, meta)?;
+        reference.half_a.write_exr(&half("a"), meta)?;
+        reference.half_b.write_exr(&half("b"), meta)
+    })?;
+    let lit: Vec<usize> = (0..reference.film.pixels.len())
+        .filter(|&i| reference.film.pixels[i].max_element() > 0.0)
+        .collect();
+    stats.reference_noise = reference.relative_noise(&lit);
+    stats.reference_regions = [
+        ("floor", &regions.diffuse),
+        ("caustic", &regions.caustic),
+        ("contour", &regions.contour),
+        ("shadow", &regions.shadow),
+    ]
+    .into_iter()
+    .map(|(name, pixels)| RegionNoise {
+        name: name.to_string(),
+        pixels: pixels.len() as u64,
+        // An empty region has no noise to tell (its mean is 0).
+        relative_noise: (!pixels.is_empty()).then(|| reference.relative_noise(pixels)),
+    })
+    .collect();
+    match made.seconds {
         Some(s) => {
             println!("reference made in {s:.1} s; relative noise per pixel (from its halves):")
         }
         None => println!("references merged; relative noise per pixel (from its halves):"),
     }
-    for (name, pixels) in [
-        ("floor", &regions.diffuse),
-        ("caustic", &regions.caustic),
-        ("contour", &regions.contour),
-        ("shadow", &regions.shadow),
-    ] {
-        // An empty region has no noise to tell (its mean is 0): said so, not "inf".
-        let noise = if pixels.is_empty() {
-            "n/a (no pixels)".to_string()
-        } else {
-            format!("{:.4}", reference.relative_noise(pixels))
-        };
-        println!("  {name:8} {:7} px  {noise}", pixels.len());
+    for r in &stats.reference_regions {
+        // An empty region: said so, not "inf".
+        let noise = r
+            .relative_noise
+            .map_or_else(|| "n/a (no pixels)".to_string(), |n| format!("{n:.4}"));
+        println!("  {:8} {:7} px  {noise}", r.name, r.pixels);
     }
     println!(
         "wrote {} and its halves {}, {}",
@@ -293,6 +336,8 @@ fn write(
         half("a").display(),
         half("b").display()
     );
-    super::print_memory(&mut memory, args.quiet);
+    stats.memory.record_peak();
+    super::write_trace_and_stats(args.trace.as_deref(), args.stats_json.as_deref(), &stats)?;
+    super::print_memory(&mut stats.memory, args.quiet);
     Ok(())
 }

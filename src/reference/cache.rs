@@ -82,16 +82,19 @@ impl Default for ReferenceSettings {
 
 /// Makes the reference of `scene` (on the current rayon pool). `log` receives a message as each
 /// stage starts; `progress` reports the light tracing's progress as it goes
-/// ([`crate::util::progress::bar`]: it takes most of the time).
+/// ([`crate::util::progress::bar`]: it takes most of the time). `stats` gets a stage for each
+/// half's direct light and one for the light tracing, the rays of all three, the light paths
+/// and the threads.
 pub fn make(
     scene: &Scene,
     embree: &embree::Scene,
     settings: &ReferenceSettings,
     progress: bool,
     log: &mut dyn FnMut(&str),
+    stats: &mut Stats,
 ) -> Result<Reference, String> {
     let mut direct = Vec::new();
-    for &grid in &settings.direct_grids {
+    for (&grid, half) in settings.direct_grids.iter().zip(["A", "B"]) {
         log(&format!(
             "reference: direct light, {grid} x {grid} rays per pixel"
         ));
@@ -99,8 +102,13 @@ pub fn make(
             .with_view_grid(grid)
             .with_area_strata(8)
             .with_threads(rayon::current_num_threads());
-        direct.push(render(scene, embree, &[], &options, &mut Stats::default())?);
+        let mut own = Stats::default();
+        let stage = format!("direct light, half {half}");
+        direct.push(stats.time(&stage, || render(scene, embree, &[], &options, &mut own))?);
+        stats.rays.add(&own.rays);
+        stats.invalid_rays += own.invalid_rays;
     }
+    stats.threads = rayon::current_num_threads();
     let options = LightTraceOptions {
         paths: settings.light_paths,
         caustic_paths: settings.caustic_paths,
@@ -115,8 +123,10 @@ pub fn make(
         "reference: light tracing {global} + {caustic} caustic paths"
     ));
     let bar = crate::util::progress::bar(progress, global + caustic, "light");
-    let traced = tracer.run(&bar);
+    let traced = stats.time("light tracing", || tracer.run(&bar));
     bar.finish_and_clear();
+    stats.light_paths = traced.paths;
+    stats.light_rays = traced.rays;
     let sum = |a: &Film, b: &Film| Film {
         width: a.width,
         height: a.height,
@@ -206,7 +216,7 @@ pub fn load_or_make(
         "reference: making it (cached in {})",
         dir.display()
     ));
-    let reference = make(scene, embree, settings, false, log)?;
+    let reference = make(scene, embree, settings, false, log, &mut Stats::default())?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let meta = vec![("photondiff/reference".to_string(), tag.clone())];
     reference.film.write_exr(&file(""), &meta)?;

@@ -284,6 +284,10 @@ impl<'a> LightTracer<'a> {
             let results: Vec<(Vec<Splat>, u64)> = jobs[next..end]
                 .par_iter()
                 .map(|&(set, chunk)| {
+                    let _span = crate::util::trace::span_with("light paths", || {
+                        let set = if set == 1 { "caustic" } else { "global" };
+                        serde_json::json!({"set": set, "chunk": chunk, "paths": CHUNK})
+                    });
                     let mut splats = Vec::new();
                     let mut rays = 0;
                     for index in chunk * CHUNK..(chunk + 1) * CHUNK {
@@ -302,6 +306,10 @@ impl<'a> LightTracer<'a> {
                 }
             }
             next = end;
+            crate::util::trace::counter(
+                "light paths",
+                || serde_json::json!({"traced": counts.iter().flatten().sum::<u64>(), "rays": rays}),
+            );
         }
         let film_of = |f: &dyn Fn(usize) -> DVec3| Film {
             width: w,

@@ -69,6 +69,10 @@ pub struct Stats {
     pub light_rays: u64,
     /// The reference's estimated relative noise over its lit pixels, from its two halves.
     pub reference_noise: f64,
+    /// `photondiff reference`'s relative noise per region of the image, from its halves
+    /// (absent from other commands' statistics).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub reference_regions: Vec<RegionNoise>,
     /// Progressive passes: how many, why they stopped, the noise estimate (absent for the
     /// light tracer).
     pub progressive: Option<PassReport>,
@@ -76,6 +80,17 @@ pub struct Stats {
     pub mesh_repairs: MeshReport,
     /// Memory: the meshes, Embree's BVH and the process's peak.
     pub memory: MemoryStats,
+}
+
+/// A reference's relative noise over one region of its image ([`Stats::reference_regions`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RegionNoise {
+    /// The region: "floor", "caustic", "contour" or "shadow" (`reference::metrics::Regions`).
+    pub name: String,
+    /// Its pixels.
+    pub pixels: u64,
+    /// `sqrt(mean((A - B)^2) / 4) / mean(R)` over them; `None` (JSON `null`) for an empty region.
+    pub relative_noise: Option<f64>,
 }
 
 /// Where the memory went (bytes).
