@@ -9,6 +9,36 @@ use std::process::Command;
 
 const EXE: &str = env!("CARGO_BIN_EXE_photondiff");
 
+/// The complete events (`"ph": "X"`, spans) of the trace in `path`.
+fn spans_of(path: &std::path::Path) -> Vec<Value> {
+    let json: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let events = json["traceEvents"].as_array().unwrap();
+    events.iter().filter(|e| e["ph"] == "X").cloned().collect()
+}
+
+/// `(start, end)` of the one span named `name` among `spans`.
+fn only_span(spans: &[Value], name: &str) -> (f64, f64) {
+    let found: Vec<&Value> = spans.iter().filter(|e| e["name"] == name).collect();
+    assert_eq!(found.len(), 1, "{name}");
+    interval(found[0])
+}
+
+/// `(start, end)` of a span, in microseconds.
+fn interval(e: &Value) -> (f64, f64) {
+    let start = e["ts"].as_f64().unwrap();
+    (start, start + e["dur"].as_f64().unwrap())
+}
+
+/// The stage names of the statistics JSON in `path`, in order, with the statistics.
+fn stages_of(path: &std::path::Path) -> (Vec<String>, Value) {
+    let stats: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    let stages = stats["stages"].as_array().unwrap();
+    let names = stages
+        .iter()
+        .map(|s| s["name"].as_str().unwrap().to_string());
+    (names.collect(), stats)
+}
+
 #[test]
 fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
     let dir = tempfile::tempdir().unwrap();
@@ -142,19 +172,8 @@ fn photons_trace_their_stages_and_maps_and_write_their_statistics() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(stderr.contains("memory: peak resident "), "{stderr}");
-    let json: Value = serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
-    let spans: Vec<&Value> = json["traceEvents"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter(|e| e["ph"] == "X")
-        .collect();
-    let span = |name: &str| {
-        let found: Vec<&&Value> = spans.iter().filter(|e| e["name"] == name).collect();
-        assert_eq!(found.len(), 1, "{name}");
-        let start = found[0]["ts"].as_f64().unwrap();
-        (start, start + found[0]["dur"].as_f64().unwrap())
-    };
+    let spans = spans_of(&trace);
+    let span = |name: &str| only_span(&spans, name);
     let tracing = span("trace photons");
     for map in ["caustic map", "global map"] {
         let (start, end) = span(map);
@@ -164,13 +183,7 @@ fn photons_trace_their_stages_and_maps_and_write_their_statistics() {
     assert!(tracing.1 <= span("write photon maps").0 + 1.0);
     assert_eq!(spans.len(), 6);
     // The statistics: the stages in order, the maps' photons as printed, the BVH built.
-    let stats: Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
-    let stages: Vec<&str> = stats["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["name"].as_str().unwrap())
-        .collect();
+    let (stages, stats) = stages_of(&stats);
     assert_eq!(
         stages,
         [
@@ -266,13 +279,7 @@ fn reference_traces_its_stages_and_writes_its_noise_per_region() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let stats: Value = serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
-    let stages: Vec<&str> = stats["stages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|s| s["name"].as_str().unwrap())
-        .collect();
+    let (stages, stats) = stages_of(&stats);
     let expected = [
         "load scene",
         "build BVH",
@@ -308,25 +315,8 @@ fn reference_traces_its_stages_and_writes_its_noise_per_region() {
     let noise = stats["reference_noise"].as_f64().unwrap();
     assert!(noise > 0.0 && noise.is_finite());
     // The trace: each stage once, in order, and the four chunks of paths inside the tracing.
-    let trace: Value = serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
-    let spans: Vec<&Value> = trace["traceEvents"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter(|e| e["ph"] == "X")
-        .collect();
-    let interval = |e: &Value| {
-        let start = e["ts"].as_f64().unwrap();
-        (start, start + e["dur"].as_f64().unwrap())
-    };
-    let stage_spans: Vec<(f64, f64)> = expected
-        .iter()
-        .map(|name| {
-            let found: Vec<_> = spans.iter().filter(|e| e["name"] == *name).collect();
-            assert_eq!(found.len(), 1, "{name}");
-            interval(found[0])
-        })
-        .collect();
+    let spans = spans_of(&trace);
+    let stage_spans: Vec<(f64, f64)> = expected.iter().map(|n| only_span(&spans, n)).collect();
     for pair in stage_spans.windows(2) {
         assert!(pair[0].1 <= pair[1].0 + 1.0, "{pair:?}");
     }
@@ -334,7 +324,7 @@ fn reference_traces_its_stages_and_writes_its_noise_per_region() {
     let chunks: Vec<(f64, f64)> = spans
         .iter()
         .filter(|e| e["name"] == "light paths")
-        .map(|e| interval(e))
+        .map(interval)
         .collect();
     assert_eq!(chunks.len(), 4);
     for (start, end) in chunks {
