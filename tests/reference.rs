@@ -240,6 +240,50 @@ fn references_made_in_parts_merge_into_their_mean() {
             assert!((*m - mean).abs().max_element() <= 1e-6 * mean.max_element().max(1e-30));
         }
     }
+    // A merged reference merges again as the parts it holds: all.exr (seeds 1 and 2) with a
+    // third part is the mean of the three, weighing two to one; with part 1 again, refused.
+    let (ok, err) = reference_cli(
+        d,
+        &[
+            &small[..],
+            &grids,
+            &["--quiet", "--seed", "3", "-o", "part3.exr"],
+        ]
+        .concat(),
+    );
+    assert!(ok, "{err}");
+    let (ok, err) = reference_cli(d, &["--merge", "all.exr", "part3.exr", "-o", "all3.exr"]);
+    assert!(ok, "{err}");
+    for suffix in ["", "-a", "-b"] {
+        let read = |name: &str| Film::read_exr(&d.join(format!("{name}{suffix}.exr"))).unwrap();
+        let parts = [read("part1"), read("part2"), read("part3")];
+        for (i, m) in read("all3").pixels.iter().enumerate() {
+            let mean = parts.iter().map(|p| p.pixels[i]).sum::<glam::DVec3>() / 3.0;
+            assert!((*m - mean).abs().max_element() <= 1e-6 * mean.max_element().max(1e-30));
+        }
+    }
+    let merged = photondiff::render::part::read_part(&d.join("all3.exr")).unwrap();
+    assert_eq!(
+        merged.metadata["photondiff/reference"],
+        "mean of 3 references with seeds [1, 2, 3], each 200000-100000-2x3"
+    );
+    let (ok, err) = reference_cli(d, &["--merge", "all.exr", "part1.exr", "-o", "x.exr"]);
+    assert!(!ok);
+    assert!(err.contains("part1.exr: seed 1 appears twice"), "{err}");
+    // A merged reference whose count of parts disagrees with its seeds is refused, naming it.
+    let text = "mean of 2 references with seeds [7], each 200000-100000-2x3";
+    let meta = [("photondiff/reference".to_string(), text.to_string())];
+    for suffix in ["", "-a", "-b"] {
+        let film = Film::new(64, 48);
+        film.write_exr(&d.join(format!("odd{suffix}.exr")), &meta)
+            .unwrap();
+    }
+    let (ok, err) = reference_cli(d, &["--merge", "odd.exr", "part3.exr", "-o", "x.exr"]);
+    assert!(!ok);
+    assert_eq!(
+        err,
+        format!("photondiff: error: odd.exr: cannot read the merged parts' seeds in {text:?}\n")
+    );
     // Tracing settings say nothing to a merge: given with it, they are refused (they were
     // ignored), and --direct-grids twice is refused (its values were appended).
     for extra in [

@@ -46,7 +46,9 @@ pub struct ReferenceArgs {
     #[arg(long, value_name = "S", default_value_t = 0, conflicts_with = "merge")]
     seed: u64,
     /// Instead of tracing, write the mean of these references (each with its -a and -b halves
-    /// beside it), which must have been made with the same settings and different seeds.
+    /// beside it), which must have been made with the same settings and different seeds. A
+    /// reference merged before counts as the parts it is the mean of: their seeds must differ
+    /// from the others', and it weighs as many.
     #[arg(long, value_name = "PART.exr", num_args = 1..)]
     merge: Vec<PathBuf>,
     #[command(flatten)]
@@ -70,22 +72,39 @@ fn half_path(output: &Path, s: &str) -> PathBuf {
     PathBuf::from(format!("{}-{s}.exr", output.with_extension("").display()))
 }
 
-/// The settings a reference was made with, from its metadata, split into the seed and the rest
-/// (a reference made before seeds existed has seed 0).
-fn settings_of(part: &Part) -> Result<(String, u64), String> {
+/// The settings a reference was made with, from its metadata, split into its seeds and the
+/// rest: one seed for a reference traced once (a reference made before seeds existed has seed
+/// 0), its parts' for one merged before ("mean of N references with seeds [..], each ...", as
+/// [`read_parts`] writes it).
+fn settings_of(part: &Part) -> Result<(String, Vec<u64>), String> {
     let path = part.path.display();
     let text = part
         .metadata
         .get(META_KEY)
         .ok_or_else(|| format!("{path}: not a reference (no {META_KEY} attribute)"))?;
+    if let Some(rest) = text.strip_prefix("mean of ") {
+        let merged = rest
+            .split_once(" references with seeds [")
+            .and_then(|(n, rest)| Some((n.parse::<usize>().ok()?, rest.split_once("], each ")?)))
+            .and_then(|(n, (list, settings))| {
+                let seeds: Vec<u64> = list
+                    .split(", ")
+                    .map(str::parse)
+                    .collect::<Result<_, _>>()
+                    .ok()?;
+                (seeds.len() == n && n > 0).then(|| (settings.to_string(), seeds))
+            });
+        return merged
+            .ok_or_else(|| format!("{path}: cannot read the merged parts' seeds in {text:?}"));
+    }
     match text.rsplit_once("-seed") {
         Some((rest, seed)) => {
             let seed = seed
                 .parse()
                 .map_err(|_| format!("{path}: cannot read the seed in {text:?}"))?;
-            Ok((rest.to_string(), seed))
+            Ok((rest.to_string(), vec![seed]))
         }
-        None => Ok((text.clone(), 0)),
+        None => Ok((text.clone(), vec![0])),
     }
 }
 
@@ -96,6 +115,8 @@ const SCENE_KEY: &str = "photondiff/scene_hash";
 /// (which can take seconds), with the scene each names, if it does ([`Parts::check_scene`]).
 struct Parts {
     references: Vec<Reference>,
+    /// How many references traced once each part is the mean of.
+    weights: Vec<u64>,
     /// Each part's [`SCENE_KEY`], with its path.
     scenes: Vec<(PathBuf, Option<String>)>,
     /// What the merged reference's [`META_KEY`] says.
@@ -119,16 +140,17 @@ impl Parts {
 }
 
 /// Reads the references of `--merge` and checks that they can be averaged: the same
-/// settings, different seeds.
+/// settings, different seeds (a reference merged before brings all of its parts' seeds).
 fn read_parts(parts: &[PathBuf]) -> Result<Parts, String> {
     let mut seeds = Vec::new();
+    let mut weights = Vec::new();
     let mut common: Option<String> = None;
     let mut references = Vec::new();
     let mut scenes = Vec::new();
     for path in parts {
         // The image and its settings in one read.
         let part = read_part(path)?;
-        let (settings, seed) = settings_of(&part)?;
+        let (settings, part_seeds) = settings_of(&part)?;
         scenes.push((path.clone(), part.metadata.get(SCENE_KEY).cloned()));
         if let Some(c) = &common {
             if *c != settings {
@@ -140,13 +162,14 @@ fn read_parts(parts: &[PathBuf]) -> Result<Parts, String> {
                 ));
             }
         }
-        if seeds.contains(&seed) {
+        if let Some(seed) = part_seeds.iter().find(|s| seeds.contains(*s)) {
             return Err(format!(
                 "{}: seed {seed} appears twice among the parts: they would not be independent",
                 path.display()
             ));
         }
-        seeds.push(seed);
+        weights.push(part_seeds.len() as u64);
+        seeds.extend(part_seeds);
         common = Some(settings);
         references.push(Reference {
             film: part.film,
@@ -156,11 +179,12 @@ fn read_parts(parts: &[PathBuf]) -> Result<Parts, String> {
     }
     let meta = format!(
         "mean of {} references with seeds {seeds:?}, each {}",
-        parts.len(),
+        seeds.len(),
         common.unwrap_or_default()
     );
     Ok(Parts {
         references,
+        weights,
         scenes,
         meta,
     })
@@ -224,7 +248,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     let hash = hex(scene_hash(&args.scene)?);
     if let Some(parts) = parts {
         parts.check_scene(&hash)?;
-        let reference = stats.time("merge", || merge(&parts.references))?;
+        let reference = stats.time("merge", || merge(&parts.references, &parts.weights))?;
         let made = Made {
             reference,
             meta: vec![

@@ -158,8 +158,17 @@ pub fn make(
 
 /// The mean of references made with the same settings and different seeds: a reference with
 /// their light paths summed (each part's direct light is the same, so it stays as it is).
-pub fn merge(parts: &[Reference]) -> Result<Reference, String> {
+/// Part `k` is itself the mean of `weights[k]` such references (1 for a reference traced
+/// once, more for one merged before), so the result is the mean of all of theirs.
+pub fn merge(parts: &[Reference], weights: &[u64]) -> Result<Reference, String> {
     let first = parts.first().ok_or("no references to merge")?;
+    if weights.len() != parts.len() || weights.contains(&0) {
+        return Err(format!(
+            "{} references to merge with {} weights, which must be positive",
+            parts.len(),
+            weights.len()
+        ));
+    }
     let (w, h) = (first.film.width, first.film.height);
     if let Some(p) = parts
         .iter()
@@ -172,12 +181,12 @@ pub fn merge(parts: &[Reference]) -> Result<Reference, String> {
     }
     let mean = |film: fn(&Reference) -> &Film| {
         let mut sum = Film::new(w, h);
-        for part in parts {
+        for (part, &weight) in parts.iter().zip(weights) {
             for (s, p) in sum.pixels.iter_mut().zip(&film(part).pixels) {
-                *s += *p;
+                *s += *p * weight as f64;
             }
         }
-        let n = parts.len() as f64;
+        let n = weights.iter().sum::<u64>() as f64;
         sum.pixels.iter_mut().for_each(|p| *p /= n);
         sum
     };
