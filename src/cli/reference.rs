@@ -58,8 +58,9 @@ pub struct ReferenceArgs {
     /// noise per region that standard output prints (`reference_regions`).
     #[arg(long, value_name = "FILE")]
     stats_json: Option<PathBuf>,
-    /// Write a trace for profiling to FILE: Chrome trace-event JSON with spans per stage and
-    /// per tile of the direct light; open it in Perfetto (ui.perfetto.dev) or chrome://tracing.
+    /// Write a trace for profiling to FILE: Chrome trace-event JSON with spans per stage, per
+    /// tile of the direct light and per chunk of light paths; open it in Perfetto
+    /// (ui.perfetto.dev) or chrome://tracing.
     #[arg(long, value_name = "FILE")]
     trace: Option<PathBuf>,
     /// No stage messages and no progress (standard output still reports the noise).
