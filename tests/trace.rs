@@ -29,6 +29,31 @@ fn interval(e: &Value) -> (f64, f64) {
     (start, start + e["dur"].as_f64().unwrap())
 }
 
+/// Runs `photondiff COMMAND` on the canonical scene with `args`, writing its output to
+/// `dir/OUTPUT`, its trace to `dir/t/trace.json` and its statistics to `dir/s/stats.json`
+/// (folders it must create); returns what it printed and the two paths.
+fn run_traced(
+    dir: &std::path::Path,
+    command: &str,
+    output: &str,
+    args: &[&str],
+) -> (std::process::Output, std::path::PathBuf, std::path::PathBuf) {
+    let (trace, stats) = (dir.join("t/trace.json"), dir.join("s/stats.json"));
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml");
+    let out = Command::new(EXE)
+        .args([command, scene])
+        .args(args)
+        .arg("-o")
+        .arg(dir.join(output))
+        .arg("--trace")
+        .arg(&trace)
+        .arg("--stats-json")
+        .arg(&stats)
+        .output()
+        .unwrap();
+    (out, trace, stats)
+}
+
 /// The stage names of the statistics JSON in `path`, in order, with the statistics.
 fn stages_of(path: &std::path::Path) -> (Vec<String>, Value) {
     let stats: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
@@ -148,27 +173,8 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
 #[test]
 fn photons_trace_their_stages_and_maps_and_write_their_statistics() {
     let dir = tempfile::tempdir().unwrap();
-    let (trace, stats) = (
-        dir.path().join("t/trace.json"),
-        dir.path().join("s/stats.json"),
-    );
-    let out = Command::new(EXE)
-        .args([
-            "photons",
-            concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
-            "--caustic-photons",
-            "3000",
-            "--photons",
-            "2000",
-            "-o",
-        ])
-        .arg(dir.path().join("maps.pdm"))
-        .arg("--trace")
-        .arg(&trace)
-        .arg("--stats-json")
-        .arg(&stats)
-        .output()
-        .unwrap();
+    let args = ["--caustic-photons", "3000", "--photons", "2000"];
+    let (out, trace, stats) = run_traced(dir.path(), "photons", "maps.pdm", &args);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
     assert!(stderr.contains("memory: peak resident "), "{stderr}");
@@ -252,27 +258,9 @@ fn an_unwritable_trace_path_is_a_one_line_error_before_any_work() {
 #[test]
 fn reference_traces_its_stages_and_writes_its_noise_per_region() {
     let dir = tempfile::tempdir().unwrap();
-    let (trace, stats) = (dir.path().join("t.json"), dir.path().join("s.json"));
-    let out = Command::new(EXE)
-        .args([
-            "reference",
-            concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
-            "--light-paths",
-            "131072",
-            "--caustic-paths",
-            "131072",
-            "--direct-grids",
-            "1,2",
-            "--quiet",
-        ])
-        .arg("-o")
-        .arg(dir.path().join("ref.exr"))
-        .arg("--trace")
-        .arg(&trace)
-        .arg("--stats-json")
-        .arg(&stats)
-        .output()
-        .unwrap();
+    let paths = ["--light-paths", "131072", "--caustic-paths", "131072"];
+    let args = [&paths[..], &["--direct-grids", "1,2", "--quiet"]].concat();
+    let (out, trace, stats) = run_traced(dir.path(), "reference", "ref.exr", &args);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
