@@ -324,10 +324,7 @@ fn write(
         reference.half_a.write_exr(&half("a"), meta)?;
         reference.half_b.write_exr(&half("b"), meta)
     })?;
-    let lit: Vec<usize> = (0..reference.film.pixels.len())
-        .filter(|&i| reference.film.pixels[i].max_element() > 0.0)
-        .collect();
-    stats.reference_noise = reference.relative_noise(&lit);
+    stats.reference_noise = reference.relative_noise(&reference.film.lit_pixels());
     stats.reference_regions = [
         ("floor", &regions.diffuse),
         ("caustic", &regions.caustic),

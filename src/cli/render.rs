@@ -421,12 +421,9 @@ fn light_trace(
     let bar = photondiff::util::progress::bar(progress, paths, "light");
     let result = stats.time("render", || pool.install(|| tracer.run(&bar)));
     bar.finish_and_clear();
-    let all: Vec<usize> = (0..result.film.pixels.len())
-        .filter(|&i| result.film.pixels[i].max_element() > 0.0)
-        .collect();
     stats.light_paths = result.paths;
     stats.light_rays = result.rays;
-    stats.reference_noise = result.relative_noise(&all);
+    stats.reference_noise = result.relative_noise(&result.film.lit_pixels());
     Ok(result.film)
 }
 

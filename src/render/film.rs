@@ -15,6 +15,14 @@ pub struct Film {
 }
 
 impl Film {
+    /// The pixels with some light in any channel (what "over its lit pixels" means in the
+    /// statistics' noise estimates).
+    pub fn lit_pixels(&self) -> Vec<usize> {
+        (0..self.pixels.len())
+            .filter(|&i| self.pixels[i].max_element() > 0.0)
+            .collect()
+    }
+
     /// A black film.
     pub fn new(width: u32, height: u32) -> Self {
         Film {
