@@ -13,6 +13,7 @@
 use crate::photons::footprint_bvh::LEAF_SIZE;
 use crate::photons::map::Photon;
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 use wide::f32x16;
 
 mod found;
@@ -98,6 +99,23 @@ pub struct CoverTable {
     slab: Vec<f32>,
 }
 
+/// Photons a worker task of [`CoverTable::new`] takes at once.
+const BLOCK: usize = 1 << 14;
+
+/// Number of the table's columns.
+const COLUMNS: usize = 13;
+
+/// Photon `p`'s entries in the table's columns: position, filter rows, normal, slab.
+#[inline]
+fn row(p: &Photon) -> [f32; COLUMNS] {
+    let [px, py, pz] = p.position.to_array();
+    let [m00, m01, m02] = p.m[0].to_array();
+    let [m10, m11, m12] = p.m[1].to_array();
+    let [nx, ny, nz] = p.normal.to_array();
+    let slab = OFF_PLANE_TOLERANCE * p.radius;
+    [px, py, pz, m00, m01, m02, m10, m11, m12, nx, ny, nz, slab]
+}
+
 /// A view footprint to test photons against: its centre, edges and surface normal, in every
 /// lane.
 #[derive(Clone, Copy)]
@@ -121,24 +139,39 @@ impl CoverQuery {
 
 impl CoverTable {
     /// The table of `photons`, in their order.
+    ///
+    /// One pass over the photons, a block of them per worker task: each 80-byte photon is read
+    /// once for all thirteen columns. (A pass per column on one thread read the photons
+    /// thirteen times and took about 0.14 s of the 0.45 s that loading 1.28M photons took.)
     pub fn new(photons: &[Photon]) -> Self {
-        let mut t = CoverTable::default();
         // Padding after the last photon: a leaf's lanes always load.
         let n = photons.len() + LANES - 1;
-        let column = |get: &dyn Fn(&Photon) -> f32| -> Vec<f32> {
-            let mut c: Vec<f32> = photons.iter().map(get).collect();
-            c.resize(n, 0.0);
-            c
-        };
-        for i in 0..3 {
-            t.position[i] = column(&|p| p.position[i]);
-            t.normal[i] = column(&|p| p.normal[i]);
-            for r in 0..2 {
-                t.m[r][i] = column(&|p| p.m[r][i]);
-            }
+        let mut columns: [Vec<f32>; COLUMNS] = std::array::from_fn(|_| vec![0.0; n]);
+        // Each column cut into blocks, then the blocks regrouped: block `k` of every column.
+        let mut cut: Vec<_> = columns
+            .iter_mut()
+            .map(|c| c[..photons.len()].chunks_mut(BLOCK))
+            .collect();
+        let blocks: Vec<Vec<&mut [f32]>> = (0..photons.len().div_ceil(BLOCK))
+            .map(|_| cut.iter_mut().map(|c| c.next().expect("a block")).collect())
+            .collect();
+        photons
+            .par_chunks(BLOCK)
+            .zip(blocks)
+            .for_each(|(photons, mut block)| {
+                for (k, p) in photons.iter().enumerate() {
+                    for (column, value) in block.iter_mut().zip(row(p)) {
+                        column[k] = value;
+                    }
+                }
+            });
+        let [px, py, pz, m00, m01, m02, m10, m11, m12, nx, ny, nz, slab] = columns;
+        CoverTable {
+            position: [px, py, pz],
+            m: [[m00, m01, m02], [m10, m11, m12]],
+            normal: [nx, ny, nz],
+            slab,
         }
-        t.slab = column(&|p| OFF_PLANE_TOLERANCE * p.radius);
-        t
     }
 
     /// Appends to `out` the slots among `first..first + count` (`count <= 16`, a leaf of the
@@ -349,6 +382,45 @@ mod tests {
             }
         }
         inside
+    }
+
+    /// Built a block of photons per task, every slot holds its own photon's numbers, across
+    /// the blocks' seams and in the last, partial block, and the padding after it is zero.
+    #[test]
+    fn every_slot_holds_its_photons_numbers() {
+        let n = 2 * BLOCK + 123;
+        let photons: Vec<Photon> = (0..n)
+            .map(|i| {
+                let t = i as f32;
+                let mut p = photon(
+                    [1.0 + t as f64, 0.5, -0.25],
+                    [0.125, -2.0 - t as f64, 4.0],
+                    DVec3::Z,
+                    DVec3::new(t as f64 * 0.5, -(t as f64), 3.0),
+                    0.01 * (1.0 + t as f64),
+                );
+                p.normal = Vec3::new(t, -t, 1.0 + t);
+                p
+            })
+            .collect();
+        let table = CoverTable::new(&photons);
+        for (i, p) in photons.iter().enumerate() {
+            assert_eq!(table.filter_frame(i), (p.position, p.m), "slot {i}");
+            assert_eq!(
+                table.surface(i),
+                (p.normal, OFF_PLANE_TOLERANCE * p.radius),
+                "slot {i}"
+            );
+        }
+        for column in table
+            .position
+            .iter()
+            .chain(&table.normal)
+            .chain([&table.slab])
+        {
+            assert_eq!(column.len(), n + LANES - 1);
+            assert!(column[n..].iter().all(|&v| v == 0.0));
+        }
     }
 
     /// The property below says something only where points are inside: the draws must hold

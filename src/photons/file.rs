@@ -30,6 +30,7 @@ use super::options::PhotonOptions;
 use super::trace::TraceCounts;
 use super::PhotonMaps;
 use glam::{DVec3, Vec3};
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::Path;
@@ -92,21 +93,27 @@ fn push_map(out: &mut Vec<u8>, map: &PhotonMap, counts: &TraceCounts) {
     ] {
         out.extend_from_slice(&v.to_le_bytes());
     }
-    out.reserve(map.photons.len() * PHOTON_BYTES);
-    for p in &map.photons {
-        let mut floats = [0f32; 20];
-        for (k, v) in [p.position, p.normal, p.direction, p.power, p.m[0], p.m[1]]
-            .iter()
-            .enumerate()
-        {
-            floats[3 * k..3 * k + 3].copy_from_slice(&v.to_array());
-        }
-        floats[18] = p.inv_area;
-        floats[19] = p.radius;
-        for f in floats {
-            out.extend_from_slice(&f.to_le_bytes());
-        }
-    }
+    // The photons' bytes filled in place on the worker threads: one at a time, a number at a
+    // time, they took a third of writing 1.28M photons' maps.
+    let start = out.len();
+    out.resize(start + map.photons.len() * PHOTON_BYTES, 0);
+    out[start..]
+        .par_chunks_exact_mut(PHOTON_BYTES)
+        .zip(&map.photons)
+        .for_each(|(bytes, p)| {
+            let floats = [p.position, p.normal, p.direction, p.power, p.m[0], p.m[1]]
+                .into_iter()
+                .flat_map(|v| v.to_array())
+                .chain([p.inv_area, p.radius]);
+            for (b, f) in bytes.chunks_exact_mut(4).zip(floats) {
+                b.copy_from_slice(&f.to_le_bytes());
+            }
+        });
+}
+
+/// The bytes [`push_map`] writes for `map`.
+fn map_bytes(map: &PhotonMap) -> usize {
+    MAP_HEADER_BYTES + map.photons.len() * PHOTON_BYTES
 }
 
 /// The bytes of a photon-map file for the scene with content hash `scene_hash`.
@@ -116,21 +123,22 @@ pub fn encode(
     scene_hash: u64,
     options: &PhotonOptions,
 ) -> Vec<u8> {
-    let mut payload = Vec::new();
-    push_map(&mut payload, &maps.caustic, &counts[0]);
-    push_map(&mut payload, &maps.global, &counts[1]);
+    let payload_bytes = map_bytes(&maps.caustic) + map_bytes(&maps.global);
     let header = Header {
         scene_hash: format!("{scene_hash:016x}"),
         settings: settings(options),
-        payload_bytes: payload.len() as u64,
+        payload_bytes: payload_bytes as u64,
     };
     let header = serde_json::to_vec(&header).expect("a header is always JSON");
-    let mut out = Vec::with_capacity(payload.len() + header.len() + 32);
+    // The maps written straight after the header: built apart and copied, their bytes were
+    // written twice.
+    let mut out = Vec::with_capacity(16 + header.len() + payload_bytes + 8);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&(header.len() as u32).to_le_bytes());
     out.extend_from_slice(&header);
-    out.extend_from_slice(&payload);
+    push_map(&mut out, &maps.caustic, &counts[0]);
+    push_map(&mut out, &maps.global, &counts[1]);
     let sum = checksum(&out);
     out.extend_from_slice(&sum.to_le_bytes());
     out
@@ -169,8 +177,9 @@ fn take_map(
         .checked_mul(PHOTON_BYTES)
         .filter(|s| *at + s <= bytes.len())
         .ok_or("payload too short for its photons")?;
+    // On the worker threads, in order.
     let photons: Vec<Photon> = bytes[*at..*at + size]
-        .chunks_exact(PHOTON_BYTES)
+        .par_chunks_exact(PHOTON_BYTES)
         .map(|c| {
             let f = |k: usize| f32::from_le_bytes(c[4 * k..4 * k + 4].try_into().expect("4 bytes"));
             let v3 = |k: usize| Vec3::new(f(k), f(k + 1), f(k + 2));

@@ -188,21 +188,27 @@ impl FootprintBvh {
     pub fn new(boxes: &[Aabb]) -> Self {
         // Morton codes of the box centres over the centres' bounds; ties broken by index, so
         // the tree (and the order of query results) depends only on the input.
+        // Every step over all the boxes runs on the worker threads, in order (minima and
+        // maxima do not depend on it): on one thread these passes took a third of loading
+        // 1.28M photons' maps.
         let finite: Vec<u32> = (0..boxes.len() as u32)
+            .into_par_iter()
             .filter(|&i| {
                 let b = &boxes[i as usize];
                 b.min.is_finite() && b.max.is_finite()
             })
             .collect();
         let (lo, hi) = finite
-            .iter()
+            .par_iter()
             .map(|&i| {
                 let b = &boxes[i as usize];
-                0.5 * (b.min + b.max)
+                let c = 0.5 * (b.min + b.max);
+                (c, c)
             })
-            .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), c| {
-                (lo.min(c), hi.max(c))
-            });
+            .reduce(
+                || (Vec3::INFINITY, Vec3::NEG_INFINITY),
+                |(lo, hi), (l, h)| (lo.min(l), hi.max(h)),
+            );
         let scale = ((1u32 << 21) - 1) as f32 / (hi - lo).max(Vec3::splat(f32::MIN_POSITIVE));
         let mut keyed: Vec<(u64, u32)> = finite
             .par_iter()
@@ -215,9 +221,9 @@ impl FootprintBvh {
             })
             .collect();
         keyed.par_sort_unstable();
-        let codes: Vec<u64> = keyed.iter().map(|k| k.0).collect();
-        let ids: Vec<u32> = keyed.iter().map(|k| k.1).collect();
-        let boxes: Vec<Aabb> = ids.iter().map(|&i| boxes[i as usize]).collect();
+        let codes: Vec<u64> = keyed.par_iter().map(|k| k.0).collect();
+        let ids: Vec<u32> = keyed.par_iter().map(|k| k.1).collect();
+        let boxes: Vec<Aabb> = ids.par_iter().map(|&i| boxes[i as usize]).collect();
         let mut binary = Vec::with_capacity(2 * ids.len() / LEAF_SIZE + 1);
         if !ids.is_empty() {
             build(&boxes, &codes, 0, codes.len(), &mut binary);

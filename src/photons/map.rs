@@ -135,7 +135,10 @@ impl Flux {
 impl PhotonMap {
     /// Builds the footprint BVH over `photons`.
     pub fn new(class: PathClass, photons: Vec<Photon>, emitted: u64, guards: Guards) -> Self {
-        let max_radius = photons.iter().map(|p| p.radius).fold(0.0, f32::max);
+        let max_radius = photons
+            .par_iter()
+            .map(|p| p.radius)
+            .reduce(|| 0.0, f32::max);
         // Per photon and independent: on the worker threads (in order, so the map is the same).
         let boxes: Vec<Aabb> = photons.par_iter().map(footprint_box).collect();
         let mut bvh = FootprintBvh::new(&boxes);
@@ -146,7 +149,7 @@ impl PhotonMap {
             .collect();
         bvh.renumber();
         let cover = CoverTable::new(&photons);
-        let flux = photons.iter().map(Flux::of).collect();
+        let flux = photons.par_iter().map(Flux::of).collect();
         PhotonMap {
             flux,
             class,
