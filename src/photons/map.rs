@@ -142,11 +142,15 @@ impl PhotonMap {
         // Per photon and independent: on the worker threads (in order, so the map is the same).
         let boxes: Vec<Aabb> = photons.par_iter().map(footprint_box).collect();
         let mut bvh = FootprintBvh::new(&boxes);
-        let photons: Vec<Photon> = bvh
-            .order()
-            .par_iter()
-            .map(|&i| photons[i as usize])
-            .collect();
+        // Maps read from a file are in leaf order already: kept as they are, not copied.
+        let order = bvh.order();
+        let in_order = order.len() == photons.len()
+            && order.par_iter().enumerate().all(|(k, &i)| k == i as usize);
+        let photons: Vec<Photon> = if in_order {
+            photons
+        } else {
+            order.par_iter().map(|&i| photons[i as usize]).collect()
+        };
         bvh.renumber();
         let cover = CoverTable::new(&photons);
         let flux = photons.par_iter().map(Flux::of).collect();
