@@ -72,7 +72,7 @@ fn main() {
         assert_eq!(sum.to_le_bytes(), data[data.len() - 8..]);
         drop(data);
         // Both maps' query structures, rebuilt from the decoded photons as loading does.
-        let copies = [&loaded.0.caustic, &loaded.0.global].map(|m| m.photons.clone());
+        let copies = [&loaded.0.caustic, &loaded.0.global].map(|m| m.photons());
         let (t, _) = seconds(|| {
             let [c, g] = copies;
             let (mc, mg) = (&loaded.0.caustic, &loaded.0.global);

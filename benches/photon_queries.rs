@@ -64,7 +64,7 @@ fn main() {
             let c = &maps.caustic;
             let build = (0..3)
                 .map(|_| {
-                    let photons = c.photons.clone();
+                    let photons = c.photons();
                     let start = Instant::now();
                     let map = PhotonMap::new(c.class, photons, c.emitted, c.guards);
                     let t = start.elapsed().as_secs_f64();

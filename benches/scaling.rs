@@ -164,8 +164,7 @@ fn photons_sweep() {
         let traced = stats.seconds("trace photons");
         // The map build alone (the stage above includes it): rebuilt from the same photons.
         let c = &maps.caustic;
-        let (build, _) =
-            seconds(|| PhotonMap::new(c.class, c.photons.clone(), c.emitted, c.guards));
+        let (build, _) = seconds(|| PhotonMap::new(c.class, c.photons(), c.emitted, c.guards));
         let settings =
             EstimatorSettings::new(EstimatorKind::Integrated, options.limits(&scene).max_radius);
         let render_stats = render_in_process(&scene, &embree, &maps.estimators(&settings));

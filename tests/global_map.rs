@@ -180,7 +180,7 @@ fn canonical_global_map(bounce_aim: f64, emission_aim: f64) -> (usize, f64, f64)
         &indicatif::ProgressBar::hidden(),
     );
     assert_eq!(counts.emitted, emissions as u64);
-    let power: Vec<f64> = map.photons.iter().map(|p| f64::from(p.power.y)).collect();
+    let power: Vec<f64> = map.photons().iter().map(|p| f64::from(p.power.y)).collect();
     let total: f64 = power.iter().sum();
     let error = power.iter().map(|p| p * p).sum::<f64>().sqrt();
     (map.len(), total, error)

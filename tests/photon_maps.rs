@@ -257,7 +257,7 @@ fn caustic_map_holds_only_specular_then_diffuse_paths_and_ignores_threads() {
     let two = caustic_map(&scene, &embree, 2, 3000);
     assert_eq!(one.len(), 3000);
     assert!(
-        one.photons == two.photons,
+        one.photons() == two.photons(),
         "maps differ between 1 and 2 threads"
     );
     assert_eq!(one.emitted, two.emitted);
@@ -265,7 +265,7 @@ fn caustic_map_holds_only_specular_then_diffuse_paths_and_ignores_threads() {
     // light reflected off the outside (a few percent: Fresnel at grazing angles) lands elsewhere.
     let light = DVec3::new(-4.0, 4.0, -1.0);
     let in_shadow = one
-        .photons
+        .photons()
         .iter()
         .filter(|p| {
             let x = p.position.as_dvec3();

@@ -309,7 +309,11 @@ fn the_progressive_mean_does_not_drift_from_the_analytic_caustic() {
     );
     // (Compared in sorted order: the maps may order their photons by footprint size.)
     let areas = |m: &photondiff::photons::map::PhotonMap| {
-        let mut a: Vec<f64> = m.photons.iter().map(|p| 1.0 / p.inv_area as f64).collect();
+        let mut a: Vec<f64> = m
+            .photons()
+            .iter()
+            .map(|p| 1.0 / p.inv_area as f64)
+            .collect();
         a.sort_by(f64::total_cmp);
         a
     };
@@ -317,8 +321,8 @@ fn the_progressive_mean_does_not_drift_from_the_analytic_caustic() {
         ("caustic", &m0.caustic, &m15.caustic, caustic),
         ("global", &m0.global, &m15.global, global),
     ] {
-        assert!(a.photons.len() > 10, "{name}: {} photons", a.photons.len());
-        assert_eq!(a.photons.len(), b.photons.len(), "{name}");
+        assert!(a.len() > 10, "{name}: {} photons", a.len());
+        assert_eq!(a.len(), b.len(), "{name}");
         for (a, b) in areas(a).iter().zip(areas(b)) {
             let ratio = b / a;
             assert!(

@@ -298,7 +298,7 @@ fn coplanar_estimate_equals_its_sum_over_every_photon() {
                 let view = parallelogram(DVec2::ZERO, to_2d(q.footprint[0]), to_2d(q.footprint[1]));
                 let n = q.normal.as_vec3();
                 let mut sum = DVec3::ZERO;
-                for p in &map.photons {
+                for p in &map.photons() {
                     if !on_query_surface(p, q.position.as_vec3() - p.position, n) {
                         continue;
                     }
@@ -386,7 +386,7 @@ fn a_batch_of_gathers_answers_as_the_gathers_one_by_one() {
             for (q, &answer) in queries.iter().zip(&single) {
                 let (x, n) = (q.position.as_vec3(), q.normal.as_vec3());
                 let sum: Vec3 = map
-                    .photons
+                    .photons()
                     .iter()
                     .filter_map(|p| photon_kernel(p, x - p.position, n))
                     .fold(Vec3::ZERO, |a, c| a + c);

@@ -38,12 +38,13 @@ impl RadianceEstimator for JensenEstimate<'_> {
         let thickness = 0.1 * r2.sqrt();
         let mut sum = Vec3::ZERO;
         for &(d2, i) in &found {
-            let p = &self.map.photons[i as usize];
-            if !same_side(p.normal, n) || n.dot(p.position - x).abs() > thickness || d2 >= r2 {
+            let i = i as usize;
+            let ((normal, _), (position, _)) = (self.map.surface(i), self.map.filter_frame(i));
+            if !same_side(normal, n) || n.dot(position - x).abs() > thickness || d2 >= r2 {
                 continue;
             }
             counts.photons_used += 1;
-            sum += p.power * (1.0 - d2 / r2);
+            sum += self.map.flux[i].power * (1.0 - d2 / r2);
         }
         // (2 / pi) / r^2 normalises the kernel over the disc; albedo / pi is the BRDF.
         let kernel = std::f64::consts::FRAC_2_PI / r2 as f64;
