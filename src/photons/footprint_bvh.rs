@@ -164,12 +164,16 @@ impl WideNode {
 /// Built binary (a linear BVH), then collapsed to four children a node: a query descends half
 /// as many levels and tests a node's four boxes at once. Same leaves, visited in the same
 /// order.
+///
+/// The leaves hold slots `0..len`, numbered in leaf order; [`FootprintBvh::new`] gives the
+/// order beside the tree (which input item each slot holds), for the caller to lay its items
+/// out in. The tree keeps neither the items' boxes nor that order: a photon map holds what its
+/// queries test of each photon in its own slot order ([`crate::photons::cover::CoverTable`]),
+/// and the boxes and indices kept here besides were 28 bytes a photon never read.
 pub struct FootprintBvh {
     nodes: Vec<WideNode>,
-    /// The items' boxes in leaf order.
-    boxes: Vec<Aabb>,
-    /// The items' input indices in leaf order.
-    ids: Vec<u32>,
+    /// Number of items (slots).
+    len: usize,
 }
 
 /// Spreads the low 21 bits of `v` to every third bit.
@@ -184,8 +188,9 @@ fn spread(v: u64) -> u64 {
 }
 
 impl FootprintBvh {
-    /// Builds the hierarchy over `boxes` (non-finite boxes are never found).
-    pub fn new(boxes: &[Aabb]) -> Self {
+    /// Builds the hierarchy over `boxes`, and gives the order of its slots: `order[k]` is the
+    /// index in `boxes` of the item in slot `k`. Non-finite boxes are left out (never found).
+    pub fn new(boxes: &[Aabb]) -> (Self, Vec<u32>) {
         // Morton codes of the box centres over the centres' bounds; ties broken by index, so
         // the tree (and the order of query results) depends only on the input.
         // Every step over all the boxes runs on the worker threads, in order (minima and
@@ -232,41 +237,26 @@ impl FootprintBvh {
         if !binary.is_empty() {
             collapse(&binary, 0, &mut nodes);
         }
-        FootprintBvh { nodes, boxes, ids }
-    }
-
-    /// The items' indices in leaf order: `order()[k]` is the item in the `k`-th leaf slot.
-    pub fn order(&self) -> &[u32] {
-        &self.ids
-    }
-
-    /// Numbers the items by leaf slot: after the caller has put its items in [`order`],
-    /// queries answer slot numbers, and the items they find lie next to each other in memory.
-    ///
-    /// [`order`]: FootprintBvh::order
-    pub fn renumber(&mut self) {
-        for (k, id) in self.ids.iter_mut().enumerate() {
-            *id = k as u32;
-        }
+        let len = ids.len();
+        (FootprintBvh { nodes, len }, ids)
     }
 
     /// Number of items.
     pub fn len(&self) -> usize {
-        self.ids.len()
+        self.len
     }
 
     /// Whether the hierarchy holds no item.
     pub fn is_empty(&self) -> bool {
-        self.ids.is_empty()
+        self.len == 0
     }
 
-    /// Appends to `out` (not cleared) the indices of every item whose box overlaps `query`, in
-    /// leaf order.
-    pub fn overlapping(&self, query: &Aabb, out: &mut Vec<u32>) {
+    /// Appends to `out` (not cleared) the indices in `boxes` of every item whose box overlaps
+    /// `query`, in leaf order, for the tree built over `boxes` with slot order `order`.
+    pub fn overlapping(&self, boxes: &[Aabb], order: &[u32], query: &Aabb, out: &mut Vec<u32>) {
         self.leaves_overlapping(query, |first, count| {
-            let range = first..first + count;
-            for (b, &id) in self.boxes[range.clone()].iter().zip(&self.ids[range]) {
-                if b.overlaps(query) {
+            for &id in &order[first..first + count] {
+                if boxes[id as usize].overlaps(query) {
                     out.push(id);
                 }
             }
@@ -274,9 +264,8 @@ impl FootprintBvh {
     }
 
     /// Calls `visit(first, count)` with the slots of every leaf whose bounds overlap `query`,
-    /// in leaf order (`count <= LEAF_SIZE`; after [`renumber`], slots are the items' indices).
-    ///
-    /// [`renumber`]: FootprintBvh::renumber
+    /// in leaf order (`count <= LEAF_SIZE`; slot `k` holds item `order[k]` of the order
+    /// [`FootprintBvh::new`] gave).
     #[inline]
     pub fn leaves_overlapping(&self, query: &Aabb, visit: impl FnMut(usize, usize)) {
         self.leaves_meeting(query, None, visit);
@@ -453,12 +442,12 @@ mod tests {
             for k in 0..duplicates.min(boxes.len()) {
                 boxes.push(boxes[k]);
             }
-            let bvh = FootprintBvh::new(&boxes);
+            let (bvh, order) = FootprintBvh::new(&boxes);
             prop_assert_eq!(bvh.len(), boxes.len());
             for (c, h) in &queries {
                 let q = aabb(*c, *h);
                 let mut found = Vec::new();
-                bvh.overlapping(&q, &mut found);
+                bvh.overlapping(&boxes, &order, &q, &mut found);
                 found.sort_unstable();
                 prop_assert_eq!(found, brute(&boxes, &q));
             }
@@ -523,19 +512,20 @@ mod tests {
 
     #[test]
     fn empty_and_non_finite_boxes_are_never_found() {
-        let bvh = FootprintBvh::new(&[]);
+        let (bvh, order) = FootprintBvh::new(&[]);
         let mut out = Vec::new();
-        bvh.overlapping(&aabb([0.0; 3], [1e9; 3]), &mut out);
-        assert!(out.is_empty() && bvh.is_empty());
+        bvh.overlapping(&[], &order, &aabb([0.0; 3], [1e9; 3]), &mut out);
+        assert!(out.is_empty() && bvh.is_empty() && order.is_empty());
         let boxes = [
             aabb([0.0; 3], [1.0; 3]),
             aabb([f32::NAN, 0.0, 0.0], [1.0; 3]),
             aabb([2.0; 3], [0.5; 3]),
         ];
-        let bvh = FootprintBvh::new(&boxes);
-        bvh.overlapping(&aabb([0.0; 3], [1e9; 3]), &mut out);
+        let (bvh, order) = FootprintBvh::new(&boxes);
+        bvh.overlapping(&boxes, &order, &aabb([0.0; 3], [1e9; 3]), &mut out);
         out.sort_unstable();
         assert_eq!(out, vec![0, 2]);
         assert_eq!(bvh.len(), 2);
+        assert!(order == [0, 2] || order == [2, 0], "{order:?}");
     }
 }

@@ -155,11 +155,11 @@ impl PhotonMap {
             .reduce(|| 0.0, f32::max);
         // Per photon and independent: on the worker threads (in order, so the map is the same).
         let boxes: Vec<Aabb> = photons.par_iter().map(footprint_box).collect();
-        let mut bvh = FootprintBvh::new(&boxes);
+        let (bvh, order) = FootprintBvh::new(&boxes);
         drop(boxes);
-        // Each column gathered straight from the photons in leaf order.
-        let order = bvh.order();
-        let cover = CoverTable::new(&photons, order);
+        // Each column gathered straight from the photons in leaf order: the tree's slots are
+        // the map's photon indices.
+        let cover = CoverTable::new(&photons, &order);
         let (flux, arrivals) = order
             .par_iter()
             .map(|&i| {
@@ -171,7 +171,6 @@ impl PhotonMap {
                 (Flux::of(p), arrival)
             })
             .unzip();
-        bvh.renumber();
         PhotonMap {
             flux,
             class,

@@ -138,7 +138,7 @@ mod tests {
             queries in prop::collection::vec((f32_in(0.0, 10.0), f32_in(0.0, 10.0), f32_in(0.0, 1.0), f32_in(0.0, 1.5)), 1..=16),
             live in any::<u32>(),
         ) {
-            let bvh = FootprintBvh::new(&boxes_of(&items));
+            let (bvh, _) = FootprintBvh::new(&boxes_of(&items));
             let boxes = boxes_of(&queries);
             let packet = PacketBoxes::new(&boxes, live);
             let mut seen = vec![Vec::new(); boxes.len()];
@@ -164,11 +164,12 @@ mod tests {
 
     #[test]
     fn an_empty_packet_or_tree_visits_nothing() {
-        let bvh = FootprintBvh::new(&boxes_of(&[(1.0, 1.0, 0.0, 0.5)]));
+        let (bvh, _) = FootprintBvh::new(&boxes_of(&[(1.0, 1.0, 0.0, 0.5)]));
         let boxes = boxes_of(&[(1.0, 1.0, 0.0, 0.5)]);
         let mut visits = 0;
         bvh.leaves_meeting_packet(&PacketBoxes::new(&boxes, 0), |_, _, _| visits += 1);
         FootprintBvh::new(&[])
+            .0
             .leaves_meeting_packet(&PacketBoxes::new(&boxes, 1), |_, _, _| visits += 1);
         assert_eq!(visits, 0);
         bvh.leaves_meeting_packet(&PacketBoxes::new(&boxes, 1), |_, _, _| visits += 1);
