@@ -11,7 +11,7 @@ use crate::embree::{self, Ray};
 use crate::geometry::differential::RayDifferential;
 use crate::photons::emission::batch::Drawn;
 use crate::photons::emission::{Emission, Emitter};
-use crate::photons::footprint::{footprint, Guards};
+use crate::photons::footprint::{footprint, FootprintLimits, Guards};
 use crate::photons::light_path::{DiffuseHit, LightPaths};
 use crate::photons::map::{PathClass, Photon, PhotonMap};
 use crate::photons::options::PhotonOptions;
@@ -46,13 +46,27 @@ pub struct TracedPhoton {
     pub diffuse_bounces: u32,
 }
 
-/// A block of traced photons reduced to the map's photons: theirs and their mirrors', in
-/// order, the guards they tripped, and the mirrors' powers in order.
+/// Traced photons reduced to the map's photons: theirs and their mirrors', in order, with
+/// each one's power for a single emission (the photons' own powers are set once the number of
+/// emissions is known), where the mirrors are among them, and the guards they tripped.
 #[derive(Default)]
 struct Footprinted {
     photons: Vec<Photon>,
+    powers: Vec<DVec3>,
+    /// Indices of the mirror photons in `photons`, in order.
+    mirrors: Vec<u32>,
     guards: Guards,
-    mirror_powers: Vec<glam::Vec3>,
+}
+
+impl Footprinted {
+    /// `next`'s photons after these.
+    fn append(&mut self, next: Footprinted) {
+        let base = self.photons.len() as u32;
+        self.photons.extend_from_slice(&next.photons);
+        self.powers.extend_from_slice(&next.powers);
+        self.mirrors.extend(next.mirrors.iter().map(|i| i + base));
+        self.guards.add(&next.guards);
+    }
 }
 
 /// Traces photons through one scene.
@@ -220,6 +234,25 @@ impl<'a> PhotonTracer<'a> {
         stop: StopRule,
         progress: &indicatif::ProgressBar,
     ) -> (Vec<TracedPhoton>, TraceCounts) {
+        let mut traced = Vec::new();
+        let counts = self.trace_photons_into(emitter, class, stop, progress, |batch| {
+            traced.extend_from_slice(batch)
+        });
+        (traced, counts)
+    }
+
+    /// [`PhotonTracer::trace_photons`], giving the photons to `take` in order as they come, a
+    /// batch of emissions' worth at a time, rather than holding them all: a map's builder
+    /// keeps what it needs of each (a traced photon, its whole differential in `f64`, is 232
+    /// bytes).
+    pub fn trace_photons_into(
+        &self,
+        emitter: &Emitter,
+        class: PathClass,
+        stop: StopRule,
+        progress: &indicatif::ProgressBar,
+        mut take: impl FnMut(&[TracedPhoton]),
+    ) -> TraceCounts {
         // Emissions are traced in batches (each split into fixed chunks, one per task, so the
         // packets and hence the results do not depend on the number of threads) and taken in
         // index order until the map is complete.
@@ -230,7 +263,9 @@ impl<'a> PhotonTracer<'a> {
             StopRule::Stored(n) => (n, max_emissions(class, n)),
             StopRule::Emitted(n) => (usize::MAX, n as u64),
         };
+        // A batch's photons, and the count of all taken.
         let mut traced: Vec<TracedPhoton> = Vec::new();
+        let mut stored = 0;
         let mut counts = TraceCounts::default();
         // Photons land only on diffuse surfaces: without one (a closed room of mirrors) every
         // emission would bounce to the cap and store nothing (minutes for a black image).
@@ -244,7 +279,7 @@ impl<'a> PhotonTracer<'a> {
                     .map(|a| self.trace_range(emitter, class, a..(a + CHUNK).min(end)))
                     .collect();
                 let mut index = start;
-                let stored_before = traced.len();
+                let stored_before = stored;
                 let complete = 'batch: {
                     for range in batch {
                         // By position, not a peekable iterator: peeking moves a whole photon
@@ -260,19 +295,22 @@ impl<'a> PhotonTracer<'a> {
                                     break;
                                 }
                                 traced.push(*photon);
+                                stored += 1;
                                 next += 1;
                             }
                             index += 1;
-                            if traced.len() >= target {
+                            if stored >= target {
                                 break 'batch true;
                             }
                         }
                     }
                     false
                 };
+                take(&traced);
+                traced.clear();
                 // The progress bar moves once per batch: it reads the clock on every move.
                 progress.inc(match stop {
-                    StopRule::Stored(_) => (traced.len() - stored_before) as u64,
+                    StopRule::Stored(_) => (stored - stored_before) as u64,
                     StopRule::Emitted(_) => counts.emitted - start,
                 });
                 if complete {
@@ -280,8 +318,8 @@ impl<'a> PhotonTracer<'a> {
                 }
             }
         }
-        counts.stored = traced.len() as u64;
-        (traced, counts)
+        counts.stored = stored as u64;
+        counts
     }
 
     /// Traces emission `index` of `emitter` alone, with the random stream [`trace_photons`]
@@ -344,6 +382,11 @@ impl<'a> PhotonTracer<'a> {
     /// [`PhotonTracer::trace_photons`], then the photons' powers divided by the number of
     /// emissions and their footprints, in the map of `class` (with a mirror photon beyond each
     /// wall or edge a footprint runs into, with [`PhotonOptions::probe_walls`]).
+    ///
+    /// Each batch's photons are reduced to the map's as they come, so that the traced photons
+    /// (232 bytes each) are never all held: at 1.28M photons they were 300 MB at the peak of
+    /// `photondiff photons`. The powers are divided by the number of emissions, known only at
+    /// the end, then: each photon keeps its power for a single emission (`f64`) until then.
     pub fn build_map(
         &self,
         emitter: &Emitter,
@@ -351,65 +394,74 @@ impl<'a> PhotonTracer<'a> {
         stop: StopRule,
         progress: &indicatif::ProgressBar,
     ) -> (PhotonMap, TraceCounts) {
-        let (traced, counts) = self.trace_photons(emitter, class, stop, progress);
         let limits = self.options.class_limits(self.scene, class);
+        let mut all = Footprinted::default();
+        let counts = self.trace_photons_into(emitter, class, stop, progress, |batch| {
+            // On the worker threads, a block of photons per task, in order.
+            let blocks: Vec<Footprinted> = batch
+                .par_chunks(1 << 9)
+                .map(|block| self.footprints(block, &limits))
+                .collect();
+            for block in blocks {
+                all.append(block);
+            }
+        });
         let scale = 1.0 / counts.emitted.max(1) as f64;
-        // Each photon's footprint on its own, on the worker threads, a block of photons per
-        // task (in order), with the guards it tripped and its mirror images (one beyond a wall,
-        // three in an inner corner). (A slot for three mirrors beside every photon, flattened
-        // on one thread after, was 430 MB at 1.28M photons.)
-        let blocks: Vec<Footprinted> = traced
-            .par_chunks(1 << 12)
-            .map(|block| {
-                let mut out = Footprinted::default();
-                for t in block {
-                    // A photon whose differential degenerated is given the footprint its beam
-                    // would have had without focusing: its angular spread times the distance
-                    // travelled.
-                    let nominal = (self.diffuse_spread * t.path_length)
-                        .clamp(limits.min_radius, limits.max_radius);
-                    let f = footprint(
-                        t.ray.dp[0],
-                        t.ray.dp[1],
-                        t.normal,
-                        &limits,
-                        nominal,
-                        &mut out.guards,
-                    );
-                    let (p, d, power) = (t.ray.p, t.ray.d, t.power * scale);
-                    out.photons.push(Photon::new(p, t.normal, d, power, &f));
-                    let walls = self.walls.as_ref();
-                    if let Some(pair) =
-                        walls.and_then(|w| w.nearest(p, t.normal, &f, self.paths.epsilon))
-                    {
-                        for image in pair.images() {
-                            out.guards.mirrored += 1;
-                            let (at, f) = (image.point(p, p), image.footprint(&f));
-                            let mirror = Photon::new(at, t.normal, image.vector(d), power, &f);
-                            out.mirror_powers.push(mirror.power);
-                            out.photons.push(mirror);
-                        }
-                    }
-                }
-                out
-            })
-            .collect();
-        drop(traced);
+        let Footprinted {
+            mut photons,
+            powers,
+            mirrors,
+            guards,
+        } = all;
+        photons
+            .par_iter_mut()
+            .zip(powers)
+            .for_each(|(p, power)| p.power = (power * scale).as_vec3());
         // The mirrors' power summed in the photons' order, as one thread would.
-        let mirror_power = blocks
+        let mirror_power = mirrors
             .iter()
-            .flat_map(|b| &b.mirror_powers)
-            .map(|p| p.as_dvec3())
+            .map(|&i| photons[i as usize].power.as_dvec3())
             .sum();
-        let mut guards = Guards::default();
-        let mut photons = Vec::with_capacity(blocks.iter().map(|b| b.photons.len()).sum());
-        for block in blocks {
-            guards.add(&block.guards);
-            photons.extend_from_slice(&block.photons);
-        }
         let mut map = PhotonMap::new(class, photons, counts.emitted, guards);
         map.mirror_power = mirror_power;
         (map, counts)
+    }
+
+    /// The map's photons of the traced photons `block`, in order, each followed by its mirror
+    /// images (one beyond a wall, three in an inner corner), with the guards they tripped; their
+    /// powers are for a single emission, beside them.
+    fn footprints(&self, block: &[TracedPhoton], limits: &FootprintLimits) -> Footprinted {
+        let mut out = Footprinted::default();
+        for t in block {
+            // A photon whose differential degenerated is given the footprint its beam would
+            // have had without focusing: its angular spread times the distance travelled.
+            let nominal =
+                (self.diffuse_spread * t.path_length).clamp(limits.min_radius, limits.max_radius);
+            let f = footprint(
+                t.ray.dp[0],
+                t.ray.dp[1],
+                t.normal,
+                limits,
+                nominal,
+                &mut out.guards,
+            );
+            let (p, d) = (t.ray.p, t.ray.d);
+            out.photons
+                .push(Photon::new(p, t.normal, d, DVec3::ZERO, &f));
+            out.powers.push(t.power);
+            let walls = self.walls.as_ref();
+            if let Some(pair) = walls.and_then(|w| w.nearest(p, t.normal, &f, self.paths.epsilon)) {
+                for image in pair.images() {
+                    out.guards.mirrored += 1;
+                    let (at, f) = (image.point(p, p), image.footprint(&f));
+                    out.mirrors.push(out.photons.len() as u32);
+                    out.photons
+                        .push(Photon::new(at, t.normal, image.vector(d), DVec3::ZERO, &f));
+                    out.powers.push(t.power);
+                }
+            }
+        }
+        out
     }
 }
 
