@@ -75,8 +75,8 @@ impl CoplanarEstimate<'_> {
         let x = q.position.as_vec3();
         let mut sum = Vec3::ZERO;
         // Found on the query's surface (the cover test made `on_query_surface`'s test at `x`);
-        // everything else read of a photon comes from the cover test's table and the flux
-        // table, not the 80-byte photon, which is in main memory for a large map.
+        // everything else read of a photon comes from the cover test's table, whose leaf the
+        // test has just loaded, and the flux table.
         for &OnSurface(i) in found {
             let i = i as usize;
             let (position, m) = self.map.filter_frame(i);

@@ -206,9 +206,11 @@ impl CoverTable {
     /// Position and filter matrix rows of the photon in `slot`, as [`Photon::position`] and
     /// [`Photon::m`] hold them (the same `f32`s).
     ///
-    /// An estimator reading a photon it has just found reads these rather than the photon:
-    /// the cover test has just loaded the leaf's columns, while the 80-byte photon, which
-    /// spans two cache lines, is in main memory for a large map.
+    /// An estimator reading a photon it has just found reads these: the cover test has just
+    /// loaded the leaf's columns. (They are also the map's only copy of these numbers: the map
+    /// keeps no whole photon since stop 47. Before, estimators read them here rather than from
+    /// the 80-byte photon, which spanned two cache lines and was in main memory for a large
+    /// map.)
     #[inline(always)]
     pub fn filter_frame(&self, slot: usize) -> (Vec3, [Vec3; 2]) {
         let at = |c: &[Vec<f32>; 3]| Vec3::new(c[0][slot], c[1][slot], c[2][slot]);

@@ -109,9 +109,9 @@ pub struct PhotonMap {
     /// What the exact cover test reads of each photon, in the same order.
     cover: CoverTable,
     /// Each photon's power and `1 / A`, in the same order: what a gather reads of a photon
-    /// once its kernel's share is known, sixteen bytes a photon rather than eighty (at
-    /// 1,280,000 photons, multi-sampled 8x8 reading them from the photons spent 6% of its
-    /// render stage waiting for them).
+    /// once its kernel's share is known, sixteen bytes a photon rather than a whole photon's
+    /// eighty (at 1,280,000 photons, multi-sampled 8x8 reading them from the photons spent 6%
+    /// of its render stage waiting for them).
     pub flux: Vec<Flux>,
 }
 

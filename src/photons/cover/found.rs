@@ -1,6 +1,6 @@
 //! What a footprint query keeps of each photon it finds: its slot alone, or with the view
 //! footprint in the photon's filter space, which the cover test computes on the way, so that
-//! an estimator need not read the 80-byte photon again.
+//! an estimator need not read the photon's numbers again.
 
 use super::{Lanes, LANES};
 use glam::Vec2;
