@@ -507,7 +507,7 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
             "{stderr}"
         );
     }
-    // 2 * 10^9 photons: 600 GB at 300 bytes each, beyond any machine this runs on.
+    // 2 * 10^9 photons: 500 GB at 250 bytes each, beyond any machine this runs on.
     // The warning comes before the tracing; the run is stopped there. (On the canonical scene,
     // whose glass sphere stores caustic photons, so that the tracing outlasts the test: on a
     // scene that stores none the run finished, and wrote its maps, before the kill could
@@ -543,8 +543,8 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
     child.kill().unwrap();
     child.wait().unwrap();
     let expected = format!(
-        "photondiff: warning: {}: 2000000000 photons may need up to 600.0 GB while their maps \
-         are built (about 300 bytes a photon); this machine has ",
+        "photondiff: warning: {}: 2000000000 photons may need up to 500.0 GB while their maps \
+         are built (about 250 bytes a photon); this machine has ",
         scene.display()
     );
     assert!(line.starts_with(&expected), "{line}");

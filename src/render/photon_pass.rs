@@ -7,7 +7,7 @@ use crate::photons::emission::Emitter;
 use crate::photons::footprint::Guards;
 use crate::photons::map::{PathClass, PhotonMap};
 use crate::photons::options::PhotonOptions;
-use crate::photons::radiance_map::RadianceMap;
+use crate::photons::radiance_map::{RadianceMap, RadianceSample};
 use crate::photons::trace::{max_emissions, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
@@ -59,9 +59,16 @@ pub fn trace_photon_maps(
             );
             let stop = StopRule::Stored(options.global_photons);
             if options.radiance_map {
-                let (traced, g) =
-                    tracer.trace_photons(&global_emitter, PathClass::AllDiffuse, stop, &bar);
-                (caustic, Err(traced), [c, g])
+                // Only what the radiance map reads of each photon is kept.
+                let mut samples = Vec::new();
+                let g = tracer.trace_photons_into(
+                    &global_emitter,
+                    PathClass::AllDiffuse,
+                    stop,
+                    &bar,
+                    |batch| samples.extend(batch.iter().map(RadianceSample::of)),
+                );
+                (caustic, Err(samples), [c, g])
             } else {
                 let (global, g) = tracer.build_map(&global_emitter, PathClass::Global, stop, &bar);
                 (caustic, Ok(global), [c, g])
