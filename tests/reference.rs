@@ -222,15 +222,49 @@ fn references_made_in_parts_merge_into_their_mean() {
         let quiet: &[&str] = if seed == "1" { &["--quiet"] } else { &[] };
         let (ok, err) = reference_cli(
             d,
-            &[&small[..], &grids, quiet, &["--seed", seed, "-o", &out]].concat(),
+            &[
+                &small[..],
+                &grids,
+                quiet,
+                &[
+                    "--seed",
+                    seed,
+                    "-o",
+                    &out,
+                    "--stats-json",
+                    &format!("part{seed}.json"),
+                ],
+            ]
+            .concat(),
         );
         assert!(ok, "{err}");
         // Rounded up to an even number of chunks of 65,536 (4 and 2).
         let told = err.contains("reference: light tracing 262144 + 131072 caustic paths");
         assert_eq!((told, err.is_empty()), (seed == "2", seed == "1"), "{err}");
     }
-    let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "part2.exr", "-o", "all.exr"]);
+    let (ok, err) = reference_cli(
+        d,
+        &[
+            "--merge",
+            "part1.exr",
+            "part2.exr",
+            "-o",
+            "all.exr",
+            "--stats-json",
+            "all.json",
+        ],
+    );
     assert!(ok, "{err}");
+    // The merge's statistics count its parts' light paths and rays.
+    let light = |name: &str| {
+        let text = std::fs::read_to_string(d.join(name)).unwrap();
+        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        [&json["light_paths"], &json["light_rays"]].map(|v| v.as_u64().unwrap())
+    };
+    let (one, two) = (light("part1.json"), light("part2.json"));
+    assert_eq!(one[0], 262_144 + 131_072);
+    assert!(one[1] > one[0] && two[1] > two[0] && one[1] != two[1]);
+    assert_eq!(light("all.json"), [one[0] + two[0], one[1] + two[1]]);
     for suffix in ["", "-a", "-b"] {
         let read = |name: &str| Film::read_exr(&d.join(format!("{name}{suffix}.exr"))).unwrap();
         let (one, two, all) = (read("part1"), read("part2"), read("all"));
@@ -247,13 +281,37 @@ fn references_made_in_parts_merge_into_their_mean() {
         &[
             &small[..],
             &grids,
-            &["--quiet", "--seed", "3", "-o", "part3.exr"],
+            &[
+                "--quiet",
+                "--seed",
+                "3",
+                "-o",
+                "part3.exr",
+                "--stats-json",
+                "part3.json",
+            ],
         ]
         .concat(),
     );
     assert!(ok, "{err}");
-    let (ok, err) = reference_cli(d, &["--merge", "all.exr", "part3.exr", "-o", "all3.exr"]);
+    let (ok, err) = reference_cli(
+        d,
+        &[
+            "--merge",
+            "all.exr",
+            "part3.exr",
+            "-o",
+            "all3.exr",
+            "--stats-json",
+            "all3.json",
+        ],
+    );
     assert!(ok, "{err}");
+    let three = light("part3.json");
+    assert_eq!(
+        light("all3.json"),
+        [one[0] + two[0] + three[0], one[1] + two[1] + three[1]]
+    );
     for suffix in ["", "-a", "-b"] {
         let read = |name: &str| Film::read_exr(&d.join(format!("{name}{suffix}.exr"))).unwrap();
         let parts = [read("part1"), read("part2"), read("part3")];
@@ -283,6 +341,47 @@ fn references_made_in_parts_merge_into_their_mean() {
     assert_eq!(
         err,
         format!("photondiff: error: odd.exr: cannot read the merged parts' seeds in {text:?}\n")
+    );
+    // A part written before references counted their light paths merges, its count unknown
+    // (0); one whose count cannot be read is refused, naming it.
+    let old = [(
+        "photondiff/reference".to_string(),
+        "200000-100000-2x3-seed9".to_string(),
+    )];
+    let bad = [
+        old[0].clone(),
+        (
+            "photondiff/light_tracing".to_string(),
+            "many paths, 3 rays".to_string(),
+        ),
+    ];
+    for suffix in ["", "-a", "-b"] {
+        let film = Film::new(64, 48);
+        film.write_exr(&d.join(format!("old{suffix}.exr")), &old)
+            .unwrap();
+        film.write_exr(&d.join(format!("bad{suffix}.exr")), &bad)
+            .unwrap();
+    }
+    let (ok, err) = reference_cli(
+        d,
+        &[
+            "--merge",
+            "old.exr",
+            "part3.exr",
+            "-o",
+            "old3.exr",
+            "--stats-json",
+            "old3.json",
+        ],
+    );
+    assert!(ok, "{err}");
+    assert_eq!(light("old3.json"), [0, 0]);
+    let (ok, err) = reference_cli(d, &["--merge", "part3.exr", "bad.exr", "-o", "x.exr"]);
+    assert!(!ok);
+    assert_eq!(
+        err,
+        "photondiff: error: bad.exr: cannot read the light paths and rays in \
+         photondiff/light_tracing \"many paths, 3 rays\"\n"
     );
     // Tracing settings say nothing to a merge: given with it, they are refused (they were
     // ignored), and --direct-grids twice is refused (its values were appended).

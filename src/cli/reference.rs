@@ -55,7 +55,9 @@ pub struct ReferenceArgs {
     bvh: super::bvh::BvhArgs,
     /// Write the run's statistics as JSON to FILE, in `render --stats-json`'s shape: times per
     /// stage (each half's direct light, the light tracing), rays, light paths, memory, and the
-    /// noise per region that standard output prints (`reference_regions`).
+    /// noise per region that standard output prints (`reference_regions`). With --merge, the
+    /// light paths and rays are the parts' sum (0 if a part was written before references
+    /// recorded them), and no direct-light rays are counted (none are traced).
     #[arg(long, value_name = "FILE")]
     stats_json: Option<PathBuf>,
     /// Write a trace for profiling to FILE: Chrome trace-event JSON with spans per stage, per
@@ -112,6 +114,33 @@ fn settings_of(part: &Part) -> Result<(String, Vec<u64>), String> {
 /// The attribute naming the scene a reference was made of (its [`scene_hash`]).
 const SCENE_KEY: &str = "photondiff/scene_hash";
 
+/// The attribute counting the light paths and rays a reference traced ("P paths, R rays"):
+/// a merge's statistics report its parts' sum, which its own attribute carries on.
+const LIGHT_KEY: &str = "photondiff/light_tracing";
+
+/// [`LIGHT_KEY`]'s value.
+fn light_tracing(paths: u64, rays: u64) -> String {
+    format!("{paths} paths, {rays} rays")
+}
+
+/// The light paths and rays a part's [`LIGHT_KEY`] counts; `None` for a reference written
+/// before references carried it.
+fn light_tracing_of(part: &Part) -> Result<Option<(u64, u64)>, String> {
+    let Some(text) = part.metadata.get(LIGHT_KEY) else {
+        return Ok(None);
+    };
+    text.strip_suffix(" rays")
+        .and_then(|t| t.split_once(" paths, "))
+        .and_then(|(p, r)| Some((p.parse().ok()?, r.parse().ok()?)))
+        .map(Some)
+        .ok_or_else(|| {
+            format!(
+                "{}: cannot read the light paths and rays in {LIGHT_KEY} {text:?}",
+                part.path.display()
+            )
+        })
+}
+
 /// The references of `--merge`, read and checked to be averageable before the scene is read
 /// (which can take seconds), with the scene each names, if it does ([`Parts::check_scene`]).
 struct Parts {
@@ -122,6 +151,9 @@ struct Parts {
     scenes: Vec<(PathBuf, Option<String>)>,
     /// What the merged reference's [`META_KEY`] says.
     meta: String,
+    /// The light paths and rays the parts traced, summed; `None` where a part does not tell
+    /// (written before references carried [`LIGHT_KEY`]).
+    light: Option<(u64, u64)>,
 }
 
 impl Parts {
@@ -148,10 +180,15 @@ fn read_parts(parts: &[PathBuf]) -> Result<Parts, String> {
     let mut common: Option<String> = None;
     let mut references = Vec::new();
     let mut scenes = Vec::new();
+    let mut light = Some((0u64, 0u64));
     for path in parts {
         // The image and its settings in one read.
         let part = read_part(path)?;
         let (settings, part_seeds) = settings_of(&part)?;
+        light = match (light, light_tracing_of(&part)?) {
+            (Some((p, r)), Some((dp, dr))) => Some((p.saturating_add(dp), r.saturating_add(dr))),
+            _ => None,
+        };
         scenes.push((path.clone(), part.metadata.get(SCENE_KEY).cloned()));
         if let Some(c) = &common {
             if *c != settings {
@@ -188,6 +225,7 @@ fn read_parts(parts: &[PathBuf]) -> Result<Parts, String> {
         weights,
         scenes,
         meta,
+        light,
     })
 }
 
@@ -250,12 +288,17 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     if let Some(parts) = parts {
         parts.check_scene(&hash)?;
         let reference = stats.time("merge", || merge(&parts.references, &parts.weights))?;
+        let mut meta = vec![
+            (META_KEY.to_string(), parts.meta),
+            (SCENE_KEY.to_string(), hash),
+        ];
+        if let Some((paths, rays)) = parts.light {
+            (stats.light_paths, stats.light_rays) = (paths, rays);
+            meta.push((LIGHT_KEY.to_string(), light_tracing(paths, rays)));
+        }
         let made = Made {
             reference,
-            meta: vec![
-                (META_KEY.to_string(), parts.meta),
-                (SCENE_KEY.to_string(), hash),
-            ],
+            meta,
             seconds: None,
         };
         return write(args, &scene, &embree, &made, stats);
@@ -291,6 +334,10 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         meta: vec![
             (META_KEY.to_string(), settings.tag()),
             (SCENE_KEY.to_string(), hash),
+            (
+                LIGHT_KEY.to_string(),
+                light_tracing(stats.light_paths, stats.light_rays),
+            ),
         ],
         seconds: Some(start.elapsed().as_secs_f64()),
     };
