@@ -169,18 +169,30 @@ struct Stored {
     photons: Vec<Photon>,
 }
 
-/// Decodes one map from `bytes` starting at `*at`.
-fn take_map(bytes: &[u8], at: &mut usize) -> Result<Stored, String> {
+/// Decodes map `class` from `bytes` starting at `*at`. Its checksum matched, so a problem here
+/// is a file written wrongly (or forged), refused all the same: a count beyond the payload, or
+/// a photon whose power or area would put a NaN or an infinity into every pixel it covers.
+fn take_map(bytes: &[u8], at: &mut usize, class: PathClass) -> Result<Stored, String> {
+    let name = class.name();
     if bytes.len() < *at + MAP_HEADER_BYTES {
-        return Err("payload too short for its maps".into());
+        return Err(format!(
+            "corrupt photon-map file: the payload ends before the {name} map"
+        ));
     }
     let numbers: [u64; 12] = std::array::from_fn(|k| u64_at(bytes, *at + 8 * k));
     *at += MAP_HEADER_BYTES;
-    let n = numbers[11] as usize;
-    let size = n
-        .checked_mul(PHOTON_BYTES)
-        .filter(|s| *at + s <= bytes.len())
-        .ok_or("payload too short for its photons")?;
+    let n = numbers[11];
+    // Checked whole: a count near 2^64 / 80 wraps an unchecked sum of offsets.
+    let size = usize::try_from(n)
+        .ok()
+        .and_then(|n| n.checked_mul(PHOTON_BYTES))
+        .filter(|&s| at.checked_add(s).is_some_and(|end| end <= bytes.len()))
+        .ok_or_else(|| {
+            format!(
+                "corrupt photon-map file: the {name} map counts {n} photons, more than the \
+                 payload holds"
+            )
+        })?;
     // On the worker threads, in order.
     let photons: Vec<Photon> = bytes[*at..*at + size]
         .par_chunks_exact(PHOTON_BYTES)
@@ -199,6 +211,16 @@ fn take_map(bytes: &[u8], at: &mut usize) -> Result<Stored, String> {
         })
         .collect();
     *at += size;
+    let bad = |p: &Photon| {
+        let finite = |v: Vec3| v.is_finite() && v.min_element() >= 0.0;
+        !(finite(p.power) && finite(Vec3::new(p.inv_area, p.radius, 0.0)))
+    };
+    if let Some(i) = photons.par_iter().position_first(bad) {
+        return Err(format!(
+            "corrupt photon-map file: the {name} map's photon {i} has a negative or non-finite \
+             power, area or radius"
+        ));
+    }
     Ok(Stored { numbers, photons })
 }
 
@@ -374,8 +396,8 @@ fn parse(bytes: &[u8], scene_hash: u64, options: &PhotonOptions) -> Result<[Stor
     let header_len = end - header.payload_bytes as usize - 16;
     let payload = &bytes[16 + header_len..end];
     let mut at = 0;
-    let caustic = take_map(payload, &mut at)?;
-    let global = take_map(payload, &mut at)?;
+    let caustic = take_map(payload, &mut at, PathClass::Caustic)?;
+    let global = take_map(payload, &mut at, PathClass::Global)?;
     if at != payload.len() {
         return Err("corrupt photon-map file: bytes after the maps".into());
     }
@@ -457,6 +479,62 @@ mod tests {
                 format!("truncated photon-map file: {len} bytes, expected ")
             };
             assert!(e.starts_with(&expected), "{len}: {e}");
+        }
+    }
+
+    /// A file whose checksum matches but whose numbers are wrong (written wrongly, or forged)
+    /// is an error naming what is wrong: never a panic, and never NaN pixels.
+    #[test]
+    fn a_file_with_impossible_numbers_is_refused() {
+        let maps = PhotonMaps {
+            caustic: map(PathClass::Caustic, 5),
+            global: map(PathClass::Global, 2),
+            radiance: None,
+        };
+        let counts = [TraceCounts::default(); 2];
+        let options = PhotonOptions::default();
+        let bytes = encode(&maps, &counts, 1, &options);
+        let payload = 16 + u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        // The caustic map's photon count, then its photon 3's power (green) and area.
+        let count = payload + 88;
+        let photon3 = payload + MAP_HEADER_BYTES + 3 * PHOTON_BYTES;
+        let forged = |at: usize, value: &[u8]| {
+            let mut b = bytes.clone();
+            b[at..at + value.len()].copy_from_slice(value);
+            let end = b.len() - 8;
+            let sum = checksum(&b[..end]);
+            b[end..].copy_from_slice(&sum.to_le_bytes());
+            decode(&b, 1, &options).err().unwrap()
+        };
+        // 2^64 / 80: the photons' end wrapped past the payload's before (a panic).
+        for n in [u64::MAX / 80, u64::MAX / 80 + 1, u64::MAX, 1 << 40] {
+            assert_eq!(
+                forged(count, &n.to_le_bytes()),
+                format!(
+                    "corrupt photon-map file: the caustic map counts {n} photons, more than the \
+                     payload holds"
+                )
+            );
+        }
+        // One photon fewer or more misplaces the global map's numbers by a photon.
+        assert!(decode(&bytes, 1, &options).is_ok());
+        for n in [4u64, 6] {
+            let e = forged(count, &n.to_le_bytes());
+            assert!(e.starts_with("corrupt photon-map file"), "{n}: {e}");
+        }
+        for (offset, value) in [
+            (40, f32::NAN),
+            (40, f32::INFINITY),
+            (36, -1.0),
+            (72, f32::INFINITY),
+            (76, f32::NAN),
+        ] {
+            assert_eq!(
+                forged(photon3 + offset, &value.to_le_bytes()),
+                "corrupt photon-map file: the caustic map's photon 3 has a negative or non-finite \
+                 power, area or radius",
+                "{offset} {value}"
+            );
         }
     }
 }
