@@ -279,3 +279,34 @@ fn a_stored_photon_takes_at_most_250_bytes_at_the_peak_of_photons() {
         "{per_photon} bytes a photon at peak ({small} -> {large})"
     );
 }
+
+/// Photons leave a quad light from its own surface, which a robust BVH reports hit at `t = 0`
+/// (the ordinary one does not): every path ended there, and `--bvh-robust` stored no photon
+/// in a box lit by a quad light. The maps of the robust and the ordinary BVH are the same to
+/// the byte.
+#[test]
+fn a_robust_bvh_traces_a_quad_lights_photons_as_the_ordinary_one_does() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-glass.toml");
+    let photons = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+            .args(["photons", scene, "-q", "--threads", "2"])
+            .args(["--photons", "3000", "--caustic-photons", "2000", "-o"])
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        std::fs::read(out).unwrap()
+    };
+    let ordinary = photons("ordinary.bin", &[]);
+    let robust = photons("robust.bin", &["--bvh-robust"]);
+    // Two maps' worth of photons (80 bytes each), not an empty file's few hundred bytes.
+    assert!(ordinary.len() > 5000 * 80, "{} bytes", ordinary.len());
+    assert!(robust == ordinary, "the robust BVH's maps differ");
+}

@@ -64,7 +64,9 @@ pub struct PathState {
     specular: u32,
     diffuse: u32,
     path_length: f64,
-    /// Start of the next query: 0 for the segment leaving the light, the scene's epsilon after.
+    /// Start of the next query: the scene's epsilon, which [`LightPaths`] sets before the
+    /// first query too (a quad light's photons leave its own surface, which a robust BVH
+    /// reports hit at `t = 0`: every path ended there).
     tnear: f64,
     /// Surfaces met so far.
     bounces: u32,
@@ -154,6 +156,7 @@ impl LightPaths<'_> {
         mut visit: impl FnMut(&DiffuseHit) -> bool,
     ) -> u64 {
         let mut state = PathState::new(emission);
+        state.tnear = self.epsilon;
         let mut rays = 0;
         while state.bounces < self.max_bounces {
             rays += 1;
@@ -203,6 +206,7 @@ impl LightPaths<'_> {
                         Some(tag) => {
                             tags[k] = Some(tag);
                             rays[k] = 0;
+                            states[k].tnear = self.epsilon;
                         }
                         None => exhausted = true,
                     }
