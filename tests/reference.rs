@@ -274,6 +274,45 @@ fn references_made_in_parts_merge_into_their_mean() {
             assert!((*m - mean).abs().max_element() <= 1e-6 * mean.max_element().max(1e-30));
         }
     }
+    // A reference whose half is another's, or of another size, is refused, naming it: the
+    // merge would average that half in as this reference's.
+    for (name, part, half) in [("swap", "part2", "part1-b.exr"), ("small", "part1", "")] {
+        for suffix in ["", "-a"] {
+            let from = d.join(format!("{part}{suffix}.exr"));
+            std::fs::copy(from, d.join(format!("{name}{suffix}.exr"))).unwrap();
+        }
+        match half {
+            "" => Film::new(32, 48)
+                .write_exr(&d.join("small-b.exr"), &[])
+                .unwrap(),
+            _ => drop(std::fs::copy(d.join(half), d.join(format!("{name}-b.exr"))).unwrap()),
+        }
+    }
+    let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "swap.exr", "-o", "y.exr"]);
+    assert!(!ok);
+    assert!(
+        err.starts_with("photondiff: error: swap.exr: pixel (")
+            && err.ends_with(
+                "is not the mean of its halves swap-a.exr and swap-b.exr: a half was replaced \
+                 or belongs to another reference\n"
+            ),
+        "{err}"
+    );
+    let (ok, err) = reference_cli(d, &["--merge", "part2.exr", "small.exr", "-o", "y.exr"]);
+    assert!(!ok);
+    assert_eq!(
+        err,
+        "photondiff: error: small-b.exr: 32x48 pixels, but its reference small.exr has 64x48\n"
+    );
+    assert!(!d.join("y.exr").exists());
+    // A half given as a part: its own halves are missing, and the message says whose.
+    let (ok, err) = reference_cli(d, &["--merge", "part2-b.exr", "-o", "y.exr"]);
+    assert!(!ok);
+    assert!(
+        err.starts_with("photondiff: error: part2-b-a.exr: cannot read EXR: ")
+            && err.ends_with(" (half a of part2-b.exr, being merged)\n"),
+        "{err}"
+    );
     // A merged reference merges again as the parts it holds: all.exr (seeds 1 and 2) with a
     // third part is the mean of the three, weighing two to one; with part 1 again, refused.
     let (ok, err) = reference_cli(

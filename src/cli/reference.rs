@@ -209,11 +209,18 @@ fn read_parts(parts: &[PathBuf]) -> Result<Parts, String> {
         weights.push(part_seeds.len() as u64);
         seeds.extend(part_seeds);
         common = Some(settings);
-        references.push(Reference {
+        // A half is a file the user did not name: the message says whose it is.
+        let half = |s: &str| {
+            Film::read_exr(&half_path(path, s))
+                .map_err(|e| format!("{e} (half {s} of {}, being merged)", path.display()))
+        };
+        let reference = Reference {
             film: part.film,
-            half_a: Film::read_exr(&half_path(path, "a"))?,
-            half_b: Film::read_exr(&half_path(path, "b"))?,
-        });
+            half_a: half("a")?,
+            half_b: half("b")?,
+        };
+        check_halves(path, &reference)?;
+        references.push(reference);
     }
     let meta = format!(
         "mean of {} references with seeds {seeds:?}, each {}",
@@ -227,6 +234,44 @@ fn read_parts(parts: &[PathBuf]) -> Result<Parts, String> {
         meta,
         light,
     })
+}
+
+/// Refuses a reference (read from `path`) that is not the mean of its halves: a half of
+/// another size, or one replaced (by another reference written over `OUT-a.exr`, say), would
+/// be averaged into the merge as if it were this reference's.
+fn check_halves(path: &Path, r: &Reference) -> Result<(), String> {
+    let size = |f: &Film| (f.width, f.height);
+    for (half, film) in [("a", &r.half_a), ("b", &r.half_b)] {
+        if size(film) != size(&r.film) {
+            return Err(format!(
+                "{}: {}x{} pixels, but its reference {} has {}x{}",
+                half_path(path, half).display(),
+                film.width,
+                film.height,
+                path.display(),
+                r.film.width,
+                r.film.height
+            ));
+        }
+    }
+    // Written as f32, each of the three is within 2^-24 of its value: the mean of the halves
+    // as read is within about 2^-23 of their largest.
+    let apart = |(m, (a, b)): (&glam::DVec3, (&glam::DVec3, &glam::DVec3))| {
+        let bound = 1e-6 * (a.abs() + b.abs()) + glam::DVec3::splat(1e-30);
+        (*m - (*a + *b) * 0.5).abs().cmpgt(bound).any()
+    };
+    let halves = r.half_a.pixels.iter().zip(&r.half_b.pixels);
+    if let Some(i) = r.film.pixels.iter().zip(halves).position(apart) {
+        let (x, y) = (i as u32 % r.film.width, i as u32 / r.film.width);
+        return Err(format!(
+            "{}: pixel ({x}, {y}) is not the mean of its halves {} and {}: a half was replaced \
+             or belongs to another reference",
+            path.display(),
+            half_path(path, "a").display(),
+            half_path(path, "b").display()
+        ));
+    }
+    Ok(())
 }
 
 /// Runs `photondiff reference`.
