@@ -468,6 +468,17 @@ fn the_error_map_needs_a_file_of_its_own() {
             r.display()
         )
     );
+    // A PNG whatever the name: `image` chose the format from the extension and truncated an
+    // existing `map.jpg` before refusing it.
+    for name in ["map.jpg", "map"] {
+        let map = d.path().join(name);
+        std::fs::write(&map, "old").unwrap();
+        let run = out(&map);
+        assert!(run.status.success(), "{name}: {}", stderr(&run));
+        let bytes = std::fs::read(&map).unwrap();
+        assert_eq!(&bytes[..8], b"\x89PNG\r\n\x1a\n", "{name}");
+        assert!(image::load_from_memory(&bytes).is_ok(), "{name}");
+    }
 }
 
 /// Against a reference that is zero everywhere, the error map shows absolute errors and says

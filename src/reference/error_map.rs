@@ -105,14 +105,7 @@ impl Canvas {
 
     /// Writes the canvas as a PNG.
     pub fn write_png(&self, path: &Path) -> Result<(), String> {
-        image::save_buffer(
-            path,
-            &self.rgb,
-            self.width as u32,
-            self.height as u32,
-            image::ExtendedColorType::Rgb8,
-        )
-        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
+        crate::util::atomic::write_png(path, &self.rgb, self.width as u32, self.height as u32)
     }
 }
 

@@ -106,14 +106,7 @@ fn tone_map(film: &Film, exposure: f64) -> Vec<u8> {
 }
 
 fn save(path: &Path, rgb: &[u8], w: usize, h: usize) -> Result<(), String> {
-    image::save_buffer(
-        path,
-        rgb,
-        w as u32,
-        h as u32,
-        image::ExtendedColorType::Rgb8,
-    )
-    .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))
+    crate::util::atomic::write_png(path, rgb, w as u32, h as u32)
 }
 
 /// The bounding box `(x, y, w, h)` of a mask's pixels, padded by 4 pixels.

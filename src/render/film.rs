@@ -104,17 +104,7 @@ impl Film {
             .flat_map(|p| p.to_array())
             .map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8)
             .collect();
-        let mut png = std::io::Cursor::new(Vec::new());
-        image::write_buffer_with_format(
-            &mut png,
-            &bytes,
-            self.width,
-            self.height,
-            image::ExtendedColorType::Rgb8,
-            image::ImageFormat::Png,
-        )
-        .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
-        crate::util::atomic::write_bytes(path, png.get_ref())
+        crate::util::atomic::write_png(path, &bytes, self.width, self.height)
     }
 }
 

@@ -64,6 +64,22 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), String> {
     write_with(path, |out| out.write_all(bytes))
 }
 
+/// Writes 8-bit RGB pixels (`width` x `height`, row-major) to `path` as a PNG, whatever its
+/// name's extension, as [`write_bytes`] writes: whole or not at all.
+pub fn write_png(path: &Path, rgb: &[u8], width: u32, height: u32) -> Result<(), String> {
+    let mut png = std::io::Cursor::new(Vec::new());
+    image::write_buffer_with_format(
+        &mut png,
+        rgb,
+        width,
+        height,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .map_err(|e| format!("{}: cannot write PNG: {e}", path.display()))?;
+    write_bytes(path, png.get_ref())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
