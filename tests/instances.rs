@@ -259,6 +259,24 @@ fn bad_instances_are_one_line_errors_naming_the_element() {
         "{}",
         error(&far)
     );
+    // Three numbers exactly: a fourth was read past without a word.
+    for field in ["translate", "rotate"] {
+        let four = scene(
+            dir.path(),
+            "four.toml",
+            &format!("{MESHES}[[instances]]\nmesh = \"ball\"\nmaterial = \"glass\"\n{field} = [1.0, 0.0, 0.0, 5.0]\n"),
+        );
+        // A TOML parse error: several lines, the one at fault shown.
+        let e = photondiff::scene::file::load_scene(&four)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains(&format!("| {field} = [1.0, 0.0, 0.0, 5.0]"))
+                && e.ends_with("invalid length 4, expected an array of three numbers [x, y, z]"),
+            "{e}"
+        );
+    }
     let missing = scene(
         dir.path(),
         "missing.toml",

@@ -73,6 +73,28 @@ fn unknown_keys_are_named_with_their_line() {
     );
 }
 
+/// The camera's vectors hold three numbers exactly: `eye = [x, y, z, w]` was read as its first
+/// three (serde leaves the rest of a fixed-size array unread).
+#[test]
+fn camera_vectors_hold_three_numbers() {
+    for (field, line) in [("eye", 3), ("look_at", 4), ("up", 5)] {
+        for (value, n) in [("[0.0, 2.0, 5.0, 1.0]", 4), ("[1.0, 2.0]", 2)] {
+            let mut camera = CAMERA.to_string();
+            let start = camera.find(&format!("\n{field} = ")).unwrap() + 1;
+            let end = start + camera[start..].find('\n').unwrap();
+            camera.replace_range(start..end, &format!("{field} = {value}"));
+            let e = error_of(&format!("{camera}{REST}"), &[]);
+            assert!(
+                e.starts_with(&format!("TOML parse error at line {line}, column "))
+                    && e.ends_with(&format!(
+                        "invalid length {n}, expected an array of three numbers [x, y, z]"
+                    )),
+                "{e}"
+            );
+        }
+    }
+}
+
 #[test]
 fn syntax_errors_name_the_line() {
     let e = error_of(&format!("{CAMERA}{REST}\n[[shapes]\n"), &[]);

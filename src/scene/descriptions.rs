@@ -13,6 +13,42 @@ use std::path::PathBuf;
 /// A point or vector as written: `[x, y, z]`.
 pub type Vec3 = [f64; 3];
 
+/// Reads a [`Vec3`] that must hold three numbers exactly, for fields read straight from the
+/// scene document (`#[serde(deserialize_with = "exactly_three")]`): serde reads an array's
+/// first three numbers there and leaves the rest unread, so `eye = [1, 2, 3, 4]` was taken
+/// as `[1, 2, 3]`. (The typed tables go through `toml::Value`, which counts them.)
+pub fn exactly_three<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec3, D::Error> {
+    struct Three;
+    impl<'de> serde::de::Visitor<'de> for Three {
+        type Value = Vec3;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("an array of three numbers [x, y, z]")
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Vec3, A::Error> {
+            let mut v = [0.0; 3];
+            for (k, x) in v.iter_mut().enumerate() {
+                *x = seq
+                    .next_element()?
+                    .ok_or_else(|| serde::de::Error::invalid_length(k, &self))?;
+            }
+            let mut n = 3;
+            while seq.next_element::<serde::de::IgnoredAny>()?.is_some() {
+                n += 1;
+            }
+            match n {
+                3 => Ok(v),
+                _ => Err(serde::de::Error::invalid_length(n, &self)),
+            }
+        }
+    }
+    d.deserialize_seq(Three)
+}
+
+/// [`exactly_three`] for an optional field (with `#[serde(default)]`).
+pub fn maybe_three<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<Vec3>, D::Error> {
+    exactly_three(d).map(Some)
+}
+
 /// Takes the `type` of `table` out of it: one of `types`.
 fn take_type(table: &mut toml::Table, types: &[&str]) -> Result<String, String> {
     let expected = || {

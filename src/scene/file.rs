@@ -6,8 +6,8 @@
 use crate::embree::MAX_COORDINATE;
 use crate::scene::camera::Camera;
 use crate::scene::descriptions::{
-    Diffuse, Glass, LightDesc, MaterialDesc, MeshShape, Mirror, PointLight, QuadLight, QuadShape,
-    ShapeDesc, SphereShape, SpotLight, Vec3,
+    exactly_three, Diffuse, Glass, LightDesc, MaterialDesc, MeshShape, Mirror, PointLight,
+    QuadLight, QuadShape, ShapeDesc, SphereShape, SpotLight, Vec3,
 };
 use crate::scene::instances::{InstanceDesc, MeshDesc};
 use crate::scene::mesh_file::{load_mesh_reporting, LoadedMesh, MeshReport};
@@ -48,8 +48,11 @@ struct SceneFile {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CameraDesc {
+    #[serde(deserialize_with = "exactly_three")]
     eye: Vec3,
+    #[serde(deserialize_with = "exactly_three")]
     look_at: Vec3,
+    #[serde(deserialize_with = "exactly_three")]
     up: Vec3,
     fov_y: f64,
     width: u32,

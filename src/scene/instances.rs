@@ -2,6 +2,7 @@
 //! mesh is loaded once and shared (one copy in memory, one BVH in Embree); memory stays flat in
 //! the number of instances.
 
+use super::descriptions::maybe_three;
 use glam::{DAffine3, DMat3, DQuat, DVec3, EulerRot};
 use serde::Deserialize;
 
@@ -26,10 +27,10 @@ pub(super) struct InstanceDesc {
     /// A name from `[meshes]`.
     pub mesh: String,
     pub material: String,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "maybe_three")]
     pub translate: Option<[f64; 3]>,
     /// Degrees about x, then y, then z (world axes).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "maybe_three")]
     pub rotate: Option<[f64; 3]>,
     #[serde(default)]
     pub scale: Option<Scale>,
