@@ -18,8 +18,9 @@ pub fn fnv1a(mut hash: u64, bytes: &[u8]) -> u64 {
 }
 
 /// The mesh files a scene file names (`[[shapes]]` of type "mesh", then the instanced
-/// `[meshes.NAME]` by name), resolved against its folder, in the file's order.
-fn mesh_files(text: &str, base: &Path) -> Vec<PathBuf> {
+/// `[meshes.NAME]` by name), resolved against its folder, in the file's order, each with the
+/// field that names it (`shapes[2].file`, `meshes.NAME.file`) for messages.
+fn mesh_files(text: &str, base: &Path) -> Vec<(String, PathBuf)> {
     let Ok(value) = text.parse::<toml::Table>() else {
         return Vec::new();
     };
@@ -28,15 +29,19 @@ fn mesh_files(text: &str, base: &Path) -> Vec<PathBuf> {
         .and_then(|s| s.as_array())
         .into_iter()
         .flatten()
-        .filter(|s| s.get("type").and_then(|t| t.as_str()) == Some("mesh"))
-        .filter_map(|s| s.get("file").and_then(|f| f.as_str()));
+        .enumerate()
+        .filter(|(_, s)| s.get("type").and_then(|t| t.as_str()) == Some("mesh"))
+        .filter_map(|(i, s)| Some((format!("shapes[{i}].file"), s.get("file")?.as_str()?)));
     let named = value
         .get("meshes")
         .and_then(|m| m.as_table())
         .into_iter()
-        .flat_map(|t| t.values())
-        .filter_map(|m| m.get("file").and_then(|f| f.as_str()));
-    shapes.chain(named).map(|f| base.join(f)).collect()
+        .flatten()
+        .filter_map(|(name, m)| Some((format!("meshes.{name}.file"), m.get("file")?.as_str()?)));
+    shapes
+        .chain(named)
+        .map(|(field, f)| (field, base.join(f)))
+        .collect()
 }
 
 /// The content hash of the scene file at `path` and its mesh files.
@@ -48,8 +53,10 @@ pub fn scene_hash(path: &Path) -> Result<u64, String> {
     let base = path.parent().unwrap_or(Path::new(""));
     let mut hash = fnv1a(FNV_OFFSET, &(scene.len() as u64).to_le_bytes());
     hash = fnv1a(hash, &scene);
-    for mesh in mesh_files(&String::from_utf8_lossy(&scene), base) {
-        let bytes = read(&mesh)?;
+    for (field, mesh) in mesh_files(&String::from_utf8_lossy(&scene), base) {
+        // Named with the scene and the field: a `[meshes.NAME]` no instance places is read
+        // here only, and its bare path said nothing of where it came from.
+        let bytes = read(&mesh).map_err(|e| format!("{}: {field}: {e}", path.display()))?;
         hash = fnv1a(hash, &(bytes.len() as u64).to_le_bytes());
         hash = fnv1a(hash, &bytes);
     }
@@ -85,6 +92,22 @@ mod tests {
         assert_ne!(scene_hash(&dir.path().join("a.toml")).unwrap(), h1);
         std::fs::remove_file(dir.path().join("m.obj")).unwrap();
         let err = scene_hash(&dir.path().join("a.toml")).unwrap_err();
-        assert!(err.contains("m.obj: cannot read"), "{err}");
+        let (a, m) = (dir.path().join("a.toml"), dir.path().join("m.obj"));
+        let expected = format!(
+            "{}: shapes[0].file: {}: cannot read: ",
+            a.display(),
+            m.display()
+        );
+        assert!(err.starts_with(&expected), "{err}");
+        // A mesh no instance places is read for the hash alone: its error names it as well.
+        let scene = "[camera]\n[[shapes]]\ntype = \"quad\"\n[meshes.a]\nfile = \"m.obj\"\n";
+        std::fs::write(&a, scene).unwrap();
+        let err = scene_hash(&a).unwrap_err();
+        let expected = format!(
+            "{}: meshes.a.file: {}: cannot read: ",
+            a.display(),
+            m.display()
+        );
+        assert!(err.starts_with(&expected), "{err}");
     }
 }
