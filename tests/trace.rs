@@ -224,32 +224,86 @@ fn an_unwritable_trace_path_is_a_one_line_error_before_any_work() {
     ];
     for (command, output) in commands {
         let dir = tempfile::tempdir().unwrap();
+        // A file where a folder should be, and a loop of symbolic links (each said what the
+        // system call said: "File exists", or nothing until after the work).
         let blocker = dir.path().join("file");
         std::fs::write(&blocker, "").unwrap();
-        let output = dir.path().join(output);
-        let out = Command::new(EXE)
-            .args([
-                command,
-                concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
-            ])
-            .arg("-o")
-            .arg(&output)
-            .arg("--trace")
-            .arg(blocker.join("trace.json"))
-            .output()
-            .unwrap();
-        let stderr = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(out.status.code(), Some(1), "{command}: {stderr}");
-        assert_eq!(
-            stderr,
-            format!(
-                "photondiff: error: --trace: {}: cannot create folder: File exists (os error 17)\n",
-                blocker.display()
+        let looped = dir.path().join("loop.json");
+        std::os::unix::fs::symlink("loop.json", &looped).unwrap();
+        let cases = [
+            (
+                blocker.join("trace.json"),
+                format!("{}: is a file, not a folder", blocker.display()),
             ),
-            "{command}"
-        );
-        assert!(!output.exists(), "{command} wrote {}", output.display());
+            (
+                blocker.join("sub/trace.json"),
+                format!(
+                    "{}: cannot create folder: {} is a file",
+                    blocker.join("sub").display(),
+                    blocker.display()
+                ),
+            ),
+            (
+                looped.clone(),
+                format!(
+                    "{}: cannot write: a loop of symbolic links (more than 40 followed)",
+                    looped.display()
+                ),
+            ),
+        ];
+        let output = dir.path().join(output);
+        for (trace, message) in cases {
+            let out = Command::new(EXE)
+                .args([
+                    command,
+                    concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml"),
+                ])
+                .arg("-o")
+                .arg(&output)
+                .arg("--trace")
+                .arg(&trace)
+                .output()
+                .unwrap();
+            let stderr = String::from_utf8_lossy(&out.stderr);
+            assert_eq!(out.status.code(), Some(1), "{command}: {stderr}");
+            assert_eq!(
+                stderr,
+                format!("photondiff: error: --trace: {message}\n"),
+                "{command}"
+            );
+            assert!(!output.exists(), "{command} wrote {}", output.display());
+        }
     }
+}
+
+/// An output that is a symbolic link to a file not written yet is written through the link,
+/// as a link to an existing file is (it failed with "No such file or directory" after the
+/// render).
+#[test]
+fn an_output_linked_to_a_file_not_yet_written_is_written_through_the_link() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let text = include_str!("../scenes/caustic-sphere.toml")
+        .replace("width = 640", "width = 32")
+        .replace("height = 480", "height = 24");
+    std::fs::write(&scene, text).unwrap();
+    let link = dir.path().join("image.exr");
+    std::os::unix::fs::symlink("later/target.exr", &link).unwrap();
+    let out = Command::new(EXE)
+        .arg("render")
+        .arg(&scene)
+        .args(["--estimator", "direct", "-q", "-o"])
+        .arg(&link)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(link.is_symlink());
+    let film = photondiff::render::film::Film::read_exr(&dir.path().join("later/target.exr"));
+    assert_eq!(film.map(|f| (f.width, f.height)), Ok((32, 24)));
 }
 
 /// `reference --trace --stats-json`: a span per stage, the light tracing's chunks of paths

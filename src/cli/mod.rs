@@ -150,8 +150,20 @@ pub fn shown(x: f64) -> String {
 /// Creates the folder that will hold `path`, if it has one.
 pub fn create_parent(path: &Path) -> Result<(), String> {
     match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => std::fs::create_dir_all(dir)
-            .map_err(|e| format!("{}: cannot create folder: {e}", dir.display())),
+        Some(dir) if !dir.as_os_str().is_empty() => std::fs::create_dir_all(dir).map_err(|e| {
+            // The nearest part of the folder that exists, when it is a file ("File exists"
+            // said nothing of which).
+            let file = dir.ancestors().find(|a| a.exists()).filter(|a| !a.is_dir());
+            match file {
+                Some(f) if f == dir => format!("{}: is a file, not a folder", dir.display()),
+                Some(f) => format!(
+                    "{}: cannot create folder: {} is a file",
+                    dir.display(),
+                    f.display()
+                ),
+                None => format!("{}: cannot create folder: {e}", dir.display()),
+            }
+        }),
         _ => Ok(()),
     }
 }
@@ -234,6 +246,11 @@ fn probe_writable(path: &Path) -> Result<(), String> {
     if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
         return Ok(());
     }
+    // Where the file will be written: through a link (one to a file not yet written too), as
+    // the writer goes.
+    let target = photondiff::util::atomic::follow_links(path)
+        .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
+    let path = target.as_path();
     create_parent(path)?;
     let name = path
         .file_name()

@@ -38,13 +38,8 @@ pub fn write_with(
             return out.flush().map_err(cannot);
         }
     }
-    let target;
-    let path = if path.is_symlink() {
-        target = std::fs::canonicalize(path).map_err(cannot)?;
-        target.as_path()
-    } else {
-        path
-    };
+    let target = follow_links(path).map_err(cannot)?;
+    let path = target.as_path();
     let tmp = temporary(path);
     let result = (|| {
         let mut out = BufWriter::new(File::create(&tmp)?);
@@ -57,6 +52,27 @@ pub fn write_with(
         let _ = std::fs::remove_file(&tmp);
         cannot(e)
     })
+}
+
+/// Where writing `path` lands: `path` itself, or, for a symbolic link, the file at the end of
+/// its chain of links, whether that file exists yet or not (a link to an image not yet
+/// rendered is written through, as any other link). A loop of links is an error.
+pub fn follow_links(path: &Path) -> std::io::Result<PathBuf> {
+    let mut at = path.to_path_buf();
+    // Linux's own limit on links followed in one lookup.
+    for _ in 0..40 {
+        if !at.is_symlink() {
+            return Ok(at);
+        }
+        let to = std::fs::read_link(&at)?;
+        at = match at.parent() {
+            Some(dir) if to.is_relative() => dir.join(to),
+            _ => to,
+        };
+    }
+    Err(std::io::Error::other(
+        "a loop of symbolic links (more than 40 followed)",
+    ))
 }
 
 /// Writes `bytes` to `path` atomically.
@@ -120,6 +136,26 @@ mod tests {
         assert!(link.is_symlink());
         assert_eq!(std::fs::read(&target).unwrap(), b"new");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);
+        // A chain of links, relative, to a file not written yet: written through (it was
+        // "No such file or directory" after the work was done).
+        let sub = dir.path().join("sub");
+        std::fs::create_dir(&sub).unwrap();
+        std::os::unix::fs::symlink("sub/chain.bin", dir.path().join("chain.bin")).unwrap();
+        std::os::unix::fs::symlink("new.bin", sub.join("chain.bin")).unwrap();
+        write_bytes(&dir.path().join("chain.bin"), b"through").unwrap();
+        assert_eq!(std::fs::read(sub.join("new.bin")).unwrap(), b"through");
+        // A loop is an error naming the path, and nothing is written.
+        let (a, b) = (dir.path().join("a"), dir.path().join("b"));
+        std::os::unix::fs::symlink("b", &a).unwrap();
+        std::os::unix::fs::symlink("a", &b).unwrap();
+        assert_eq!(
+            write_bytes(&a, b"x").unwrap_err(),
+            format!(
+                "{}: cannot write: a loop of symbolic links (more than 40 followed)",
+                a.display()
+            )
+        );
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 6);
     }
 
     #[test]
