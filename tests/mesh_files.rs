@@ -273,6 +273,11 @@ fn broken_ascii_ply_files_name_the_element_and_line() {
         (h.replace("end_header\n", &format!("{}end_header\n", "comment 0123456789\n".repeat(100_000))),
          "cannot parse PLY: header line 55189: the header is over 1 MiB without an end_header line (a header that long is not read)"),
         ("this is not a ply file\n".into(), "cannot parse PLY: header line 1: not a PLY file (the first line is not 'ply')"),
+        // The same element or property twice: which is the geometry would be a guess.
+        (h.replace("element face 1\n", "element vertex 3\nproperty float x\nelement face 1\n"),
+         "cannot parse PLY: header line 7: a second element 'vertex'"),
+        (h.replace("property float z\n", "property float z\nproperty double x\n"),
+         "cannot parse PLY: header line 7: a second property 'x' in element 'vertex'"),
     ];
     for (ply, message) in &cases {
         assert_eq!(

@@ -1,6 +1,6 @@
 //! The PLY header: format, elements and their properties, read line by line. `comment` and
 //! `obj_info` lines are skipped; any element or property is accepted (extra ones are skipped
-//! when the data is read).
+//! when the data is read), but not the same element twice, nor the same property twice in one.
 
 use std::io::{BufRead, Read};
 
@@ -195,6 +195,10 @@ pub fn read(reader: &mut impl BufRead) -> Result<Header, String> {
                     _ => return Err(at(format!("unknown format '{f}'"))),
                 });
             }
+            // Twice the same element or property: which one the geometry is would be a guess.
+            ["element", name, _] if elements.iter().any(|e| e.name == *name) => {
+                return Err(at(format!("a second element '{name}'")));
+            }
             ["element", name, count] => elements.push(Element {
                 name: name.to_string(),
                 count: count
@@ -230,6 +234,12 @@ pub fn read(reader: &mut impl BufRead) -> Result<Header, String> {
                     },
                     _ => return Err(at(format!("malformed property line '{}'", text.trim()))),
                 };
+                if element.find(&property.name).is_some() {
+                    return Err(at(format!(
+                        "a second property '{}' in element '{}'",
+                        property.name, element.name
+                    )));
+                }
                 element.properties.push(property);
             }
             ["end_header"] => {
