@@ -403,6 +403,11 @@ fn report_refuses_non_finite_images_and_exposures() {
         stderr(&report(&[same.as_str()], Path::new(&same))),
         "photondiff: error: two renders are captioned 'a': caption them apart (LABEL=FILE.exr)\n"
     );
+    // A caption with no file after it is named as such (the message named the file "").
+    assert_eq!(
+        stderr(&report(&[], Path::new("x="))),
+        "photondiff: error: \"x=\": no file after '=' (LABEL=FILE.exr)\n"
+    );
     // A chart is shown as an image: a scene file given as one is refused (it was copied and
     // showed as a broken image).
     let toml = d.path().join("scene.toml");

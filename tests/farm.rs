@@ -291,7 +291,7 @@ fn merge_refuses_foreign_overlapping_and_incomplete_parts() {
     assert_eq!(
         e,
         format!(
-            "photondiff: error: {} is from another scene than {}: photondiff/scene_hash is {:016x} there, {:016x} here",
+            "photondiff: error: {0} is from another scene than {1}: photondiff/scene_hash is {3:016x} in {0}, {2:016x} in {1}",
             s(&b0),
             s(&a[0]),
             scene_hash(&scene_a).unwrap(),
@@ -302,7 +302,7 @@ fn merge_refuses_foreign_overlapping_and_incomplete_parts() {
     assert_eq!(
         e,
         format!(
-            "photondiff: error: {} has other settings than {}: photondiff/seed is 0 there, 7 here",
+            "photondiff: error: {0} has other settings than {1}: photondiff/seed is 7 in {0}, 0 in {1}",
             s(&seed),
             s(&a[0])
         )

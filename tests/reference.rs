@@ -462,6 +462,21 @@ fn references_made_in_parts_merge_into_their_mean() {
         err.starts_with("error: the argument '--direct-grids <A,B>' cannot be used multiple times"),
         "{err}"
     );
+    // Each grid in 1..=64, told as such (-1 was "not in 0..=4294967295"), and the two apart.
+    for (grids, bad) in [("-1,1", "-1"), ("0,2", "0"), ("2,65", "65")] {
+        let (ok, err) = reference_cli(d, &[&format!("--direct-grids={grids}"), "-o", "x.exr"]);
+        assert!(!ok);
+        let expected = format!(
+            "error: invalid value '{bad}' for '--direct-grids <A,B>': {bad} is not in 1..=64"
+        );
+        assert!(err.starts_with(&expected), "{err}");
+    }
+    let (ok, err) = reference_cli(d, &["--direct-grids", "3,3", "-o", "x.exr"]);
+    assert!(!ok);
+    assert_eq!(
+        err,
+        "photondiff: error: --direct-grids must be two different numbers in 1..=64, got [3, 3]\n"
+    );
     // The same seed twice would count the same paths twice.
     let (ok, err) = reference_cli(d, &["--merge", "part1.exr", "part1.exr", "-o", "x.exr"]);
     assert!(!ok);

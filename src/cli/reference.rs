@@ -35,7 +35,8 @@ pub struct ReferenceArgs {
     caustic_paths: u64,
     /// Camera rays per pixel along each axis for the direct light of half A and half B.
     #[arg(long, value_name = "A,B", value_delimiter = ',', default_values_t = [16, 17],
-          conflicts_with = "merge", action = clap::ArgAction::Set)]
+          conflicts_with = "merge", action = clap::ArgAction::Set,
+          value_parser = clap::value_parser!(u32).range(1..=64))]
     direct_grids: Vec<u32>,
     /// Worker threads (0 = one per core; at most 1024).
     #[arg(long, value_name = "N", default_value_t = 0)]

@@ -72,12 +72,17 @@ fn read_finite(path: &Path) -> Result<Film, String> {
     Ok(film)
 }
 
-/// `LABEL=FILE` or `FILE` (captioned with its stem). A path that exists is never split.
-fn parse_render(arg: &str) -> (String, PathBuf) {
+/// `LABEL=FILE` or `FILE` (captioned with its stem). A path that exists is never split;
+/// `LABEL=` with no file is an error (it was read as the file "", named in the message as
+/// nothing at all).
+fn parse_render(arg: &str) -> Result<(String, PathBuf), String> {
     if !Path::new(arg).exists() {
         if let Some((label, file)) = arg.split_once('=') {
             if !label.is_empty() {
-                return (label.to_string(), PathBuf::from(file));
+                if file.is_empty() {
+                    return Err(format!("{arg:?}: no file after '=' (LABEL=FILE.exr)"));
+                }
+                return Ok((label.to_string(), PathBuf::from(file)));
             }
         }
     }
@@ -86,7 +91,7 @@ fn parse_render(arg: &str) -> (String, PathBuf) {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| arg.to_string());
-    (label, path)
+    Ok((label, path))
 }
 
 /// A reference that names its scene (`photondiff reference` writes `photondiff/scene_hash`)
@@ -134,7 +139,7 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
     let reference = read_finite(&args.reference)?;
     let mut renders = Vec::new();
     for arg in &args.renders {
-        let (label, path) = parse_render(arg);
+        let (label, path) = parse_render(arg)?;
         // Two views of one caption could not be told apart on the page.
         if renders.iter().any(|r: &Render| r.label == label) {
             return Err(format!(
@@ -165,7 +170,7 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
     for path in &args.masks {
         let (w, h) = (reference.width as usize, reference.height as usize);
         regions.push(Region {
-            name: parse_render(&path.to_string_lossy()).0,
+            name: parse_render(&path.to_string_lossy())?.0,
             mask: read_mask(path, w, h)?,
         });
     }

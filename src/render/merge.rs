@@ -150,12 +150,13 @@ pub fn merge(parts: &[Part]) -> Result<Merged, String> {
                 } else {
                     "has other settings"
                 };
+                // Each value with its file: "there" and "here" were easy to read backwards.
                 return Err(format!(
-                    "{} {what} than {}: {key} is {} there, {} here",
+                    "{} {what} than {}: {key} is {} in {0}, {} in {1}",
                     name(part),
                     name(first),
-                    show(a),
-                    show(b)
+                    show(b),
+                    show(a)
                 ));
             }
         }
@@ -382,7 +383,7 @@ mod tests {
         );
         assert_eq!(
             merge(&[a, b]).err().unwrap(),
-            "b.exr has other settings than a.exr: photondiff/passes is 2 there, 3 here"
+            "b.exr has other settings than a.exr: photondiff/passes is 3 in b.exr, 2 in a.exr"
         );
     }
 }

@@ -94,8 +94,12 @@ impl FromStr for TileSplit {
     fn from_str(s: &str) -> Result<Self, String> {
         let bad = || format!("expected I/N with 0 <= I < N (I counts from 0), got {s:?}");
         let (i, n) = s.split_once('/').ok_or_else(bad)?;
-        let index: u32 = i.trim().parse().map_err(|_| bad())?;
-        let count: u32 = n.trim().parse().map_err(|_| bad())?;
+        // Read wide, so that a number past u32 is told as too large, not as malformed.
+        let number = |t: &str| -> Result<u32, String> {
+            let wide: u64 = t.trim().parse().map_err(|_| bad())?;
+            u32::try_from(wide).map_err(|_| format!("{s:?}: I and N must be at most {}", u32::MAX))
+        };
+        let (index, count) = (number(i)?, number(n)?);
         if count == 0 {
             return Err(format!("{s:?}: the number of tiles N must be at least 1"));
         }
@@ -177,7 +181,11 @@ mod tests {
             "4/4".parse::<TileSplit>().unwrap_err(),
             "\"4/4\": tile I must be below N = 4 (tiles count from 0)"
         );
-        for bad in ["a/4", "3"] {
+        assert_eq!(
+            "0/18446744073709551615".parse::<TileSplit>().unwrap_err(),
+            "\"0/18446744073709551615\": I and N must be at most 4294967295"
+        );
+        for bad in ["a/4", "3", "0/99999999999999999999"] {
             assert_eq!(
                 bad.parse::<TileSplit>().unwrap_err(),
                 format!("expected I/N with 0 <= I < N (I counts from 0), got {bad:?}")
