@@ -64,9 +64,25 @@ fn command() -> clap::Command {
     })
 }
 
+/// The ids of the options `matches` took from the command line (not from their defaults).
+fn given(matches: &clap::ArgMatches) -> Vec<String> {
+    matches
+        .ids()
+        .filter(|id| {
+            matches.value_source(id.as_str()) == Some(clap::parser::ValueSource::CommandLine)
+        })
+        .map(|id| id.to_string())
+        .collect()
+}
+
 fn main() -> ExitCode {
-    let cli = Cli::from_arg_matches(&command().get_matches())
-        .unwrap_or_else(|e| e.format(&mut command()).exit());
+    let matches = command().get_matches();
+    let mut cli =
+        Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.format(&mut command()).exit());
+    if let (Command::Render(args), Some(("render", sub))) = (&mut cli.command, matches.subcommand())
+    {
+        args.given = given(sub);
+    }
     let result = match cli.command {
         Command::Render(args) => cli::render::run(&args),
         Command::Reference(args) => cli::reference::run(&args),

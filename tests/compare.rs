@@ -473,6 +473,18 @@ fn the_error_map_needs_a_file_of_its_own() {
             r.display()
         )
     );
+    // A scale without the map it scales is refused (it was ignored).
+    let run = std::process::Command::new(bin())
+        .arg("compare")
+        .arg(&i)
+        .arg(&r)
+        .args(["--error-map-max", "0.5"])
+        .output()
+        .unwrap();
+    assert_eq!(
+        stderr(&run),
+        "photondiff: error: --error-map-max sets the error map's scale: it needs --error-map\n"
+    );
     // A PNG whatever the name: `image` chose the format from the extension and truncated an
     // existing `map.jpg` before refusing it.
     for name in ["map.jpg", "map"] {

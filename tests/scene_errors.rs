@@ -849,6 +849,49 @@ fn an_option_of_another_estimator_is_refused() {
             &["--estimator", "pd", "--coplanar-vertices", "8"][..],
             "--coplanar-vertices applies to --estimator coplanar only",
         ),
+        // Options with defaults, given where nothing reads them (each rendered as if absent).
+        (
+            &["--light-paths", "1000"][..],
+            "--light-paths applies to --estimator lighttrace only",
+        ),
+        (
+            &["--estimator", "direct", "--photons", "1000"][..],
+            "--photons does not apply to --estimator direct (it uses no photon maps)",
+        ),
+        (
+            &["--estimator", "lighttrace", "--caustic-photons", "10"][..],
+            "--caustic-photons does not apply to --estimator lighttrace (it uses no photon maps)",
+        ),
+        (
+            &["--estimator", "direct", "--overlap", "32"][..],
+            "--overlap does not apply to --estimator direct (it uses no photon maps)",
+        ),
+        (
+            &["--estimator", "direct", "--global-aim", "0.1"][..],
+            "--global-aim does not apply to --estimator direct (it uses no photon maps)",
+        ),
+        (
+            &["--estimator", "direct", "--probe-walls", "true"][..],
+            "--probe-walls does not apply to --estimator direct (it uses no photon maps)",
+        ),
+        (
+            &["--estimator", "direct", "--alpha", "0.5"][..],
+            "--alpha does not apply to --estimator direct (it uses no photon maps)",
+        ),
+        (
+            &["--estimator", "lighttrace", "--global-alpha", "0.5"][..],
+            "--global-alpha does not apply to --estimator lighttrace (it uses no photon maps)",
+        ),
+        (
+            &["--estimator", "lighttrace", "--view-grid", "2"][..],
+            "--view-grid does not apply to --estimator lighttrace (its paths reach the camera \
+             from the lights: it traces no camera rays)",
+        ),
+        (
+            &["--estimator", "lighttrace", "--edge-grid", "2"][..],
+            "--edge-grid does not apply to --estimator lighttrace (its paths reach the camera \
+             from the lights: it traces no camera rays)",
+        ),
     ] {
         assert_eq!(
             command_line("render", &scene, &out, args),
@@ -862,6 +905,33 @@ fn an_option_of_another_estimator_is_refused() {
         &scene,
         &dir.path().join("ms"),
         &["--quiet", "--estimator", "multisampled", "--ms-grid", "4"],
+    );
+    assert_eq!(json["progressive"]["passes"], 1);
+    // Options at their defaults, given to an estimator that reads them, render.
+    let (json, _) = render_file(
+        &scene,
+        &dir.path().join("lt"),
+        &[
+            "--quiet",
+            "--estimator",
+            "lighttrace",
+            "--light-paths",
+            "131072",
+        ],
+    );
+    assert_eq!(json["light_paths"], 131072);
+    let (json, _) = render_file(
+        &scene,
+        &dir.path().join("pd"),
+        &[
+            "--quiet",
+            "--estimator",
+            "pd",
+            "--overlap",
+            "32",
+            "--alpha",
+            "0.5",
+        ],
     );
     assert_eq!(json["progressive"]["passes"], 1);
 }

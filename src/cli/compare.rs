@@ -83,6 +83,10 @@ fn print_table(args: &CompareArgs, image: &ChannelImage, rows: &[RegionMetrics])
 }
 
 pub fn run(args: &CompareArgs) -> Result<(), String> {
+    if args.error_map_max.is_some() && args.error_map.is_none() {
+        // It was read by nothing, without a word.
+        return Err("--error-map-max sets the error map's scale: it needs --error-map".into());
+    }
     if let Some(path) = &args.error_map {
         let inputs = [
             ("image", args.image.as_path()),

@@ -170,6 +170,11 @@ pub struct RenderArgs {
     /// every 15 s of a long stage) and no statistics summary.
     #[arg(short, long)]
     quiet: bool,
+    /// The ids of the options given on the command line (not their defaults), which `main`
+    /// fills from clap's matches: an option the run would not read is refused only where it
+    /// was given ([`checks::options`]).
+    #[arg(skip)]
+    pub given: Vec<String>,
 }
 
 /// The EXR and PNG paths of a render: `-o` (default `out/SCENE.exr`) and `--png` (default

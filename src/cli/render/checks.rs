@@ -144,6 +144,39 @@ pub(super) fn options(
             ));
         }
     }
+    // Options with defaults, refused where given and not read (`--photons 1000000` with
+    // `--estimator direct` rendered the direct light alone, without a word).
+    let given = |id: &str| args.given.iter().any(|g| g == id);
+    let photon_options = [
+        ("global_photons", "--photons"),
+        ("caustic_photons", "--caustic-photons"),
+        ("overlap", "--overlap"),
+        ("global_aim", "--global-aim"),
+        ("probe_walls", "--probe-walls"),
+        ("alpha", "--alpha"),
+        ("global_alpha", "--global-alpha"),
+    ];
+    if no_maps {
+        if let Some((_, option)) = photon_options.iter().find(|(id, _)| given(id)) {
+            return Err(format!(
+                "{option} does not apply to --estimator {} (it uses no photon maps)",
+                estimator_name(kind)
+            ));
+        }
+    }
+    if kind == EstimatorKind::Lighttrace {
+        for (id, option) in [("view_grid", "--view-grid"), ("edge_grid", "--edge-grid")] {
+            if given(id) {
+                return Err(format!(
+                    "{option} does not apply to --estimator lighttrace (its paths reach the \
+                     camera from the lights: it traces no camera rays)"
+                ));
+            }
+        }
+    }
+    if given("light_paths") && kind != EstimatorKind::Lighttrace {
+        return Err("--light-paths applies to --estimator lighttrace only".into());
+    }
     if args.photon_maps.is_some() && no_maps {
         return Err(format!(
             "--photon-maps does not apply to --estimator {} (it uses no photon maps)",
