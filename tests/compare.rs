@@ -156,6 +156,23 @@ fn masks_are_measured_each_by_name() {
         Path::new("0.4"),
     ]);
     assert!(out.status.success());
+    // Two masks of one name (in two folders) would be two rows of one name.
+    let sub = d.path().join("sub");
+    std::fs::create_dir(&sub).unwrap();
+    std::fs::copy(&b, sub.join("diag.exr")).unwrap();
+    let out = run(&[
+        &i,
+        &r,
+        Path::new("--mask"),
+        &a,
+        Path::new("--mask"),
+        &sub.join("diag.exr"),
+    ]);
+    assert_eq!(
+        stderr(&out),
+        "photondiff: error: two masks are named 'diag' (a mask is named by its file name \
+         without the extension): rename one\n"
+    );
     let out = run(&[&i, &r, Path::new("--max-relrmse"), Path::new("0.3")]);
     assert_eq!(
         stderr(&out),
@@ -403,6 +420,22 @@ fn report_refuses_non_finite_images_and_exposures() {
         stderr(&report(&[same.as_str()], Path::new(&same))),
         "photondiff: error: two renders are captioned 'a': caption them apart (LABEL=FILE.exr)\n"
     );
+    // Two masks of one name, likewise.
+    let mask = write(d.path(), "m.exr", 2, 2, &rgb([1.0; 4]));
+    let (m1, m2) = (
+        format!("x={}", mask.display()),
+        format!("x={}", r.display()),
+    );
+    assert_eq!(
+        stderr(&report(&["--mask", &m1, "--mask", &m2], &r)),
+        "photondiff: error: two regions are named 'x': name the masks apart (NAME=M.exr)\n"
+    );
+    // NAME=M.exr names a mask (the mask was read from the whole argument, which is no file).
+    let named = report(&["--mask", &m1], &r);
+    assert!(named.status.success(), "{}", stderr(&named));
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(page.contains(">x<"), "the region x is not on the page");
+    std::fs::remove_dir_all(&out).unwrap();
     // A caption with no file after it is named as such (the message named the file "").
     assert_eq!(
         stderr(&report(&[], Path::new("x="))),

@@ -1002,6 +1002,28 @@ fn options_are_refused_before_the_scene_is_read() {
             "{command} {args:?}"
         );
     }
+    // A folder given as photon maps (refused only once the scene was read), and a reference
+    // named .png (written as EXR under that name).
+    let folder = dir.path().to_str().unwrap();
+    assert_eq!(
+        command_line("render", &missing, &out, &["--photon-maps", folder]),
+        (
+            Some(1),
+            format!("photondiff: error: {folder}: cannot read photon maps: is a folder\n")
+        )
+    );
+    let png = dir.path().join("ref.png");
+    assert_eq!(
+        command_line("reference", &missing, &png, &[]),
+        (
+            Some(1),
+            format!(
+                "photondiff: error: -o {}: a reference is written as OpenEXR (with its halves); \
+                 give it a .exr name\n",
+                png.display()
+            )
+        )
+    );
     // With good options, the missing scene is what is refused.
     let (status, stderr) = command_line("render", &missing, &out, &[]);
     assert_eq!(status, Some(1));

@@ -128,6 +128,15 @@ pub fn run(args: &CompareArgs) -> Result<(), String> {
         .iter()
         .map(|path| Ok((mask_name(path), read_mask(path, image.width, image.height)?)))
         .collect::<Result<Vec<_>, String>>()?;
+    // Rows of one name could not be told apart (nor by --max-relrmse's message).
+    for (k, (name, _)) in masks.iter().enumerate() {
+        if masks[..k].iter().any(|(other, _)| other == name) {
+            return Err(format!(
+                "two masks are named '{name}' (a mask is named by its file name without the \
+                 extension): rename one"
+            ));
+        }
+    }
     let rows: Vec<RegionMetrics> = if masks.is_empty() {
         vec![measure("image", &image, &reference, None)]
     } else {

@@ -278,6 +278,20 @@ fn check_halves(path: &Path, r: &Reference) -> Result<(), String> {
 /// Runs `photondiff reference`.
 pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     super::check_threads(args.threads)?;
+    // Three OpenEXR files: `-o ref.png` held EXR bytes under a PNG's name, beside
+    // `ref-a.exr` and `ref-b.exr`.
+    if args
+        .output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase)
+        == Some("png".into())
+    {
+        return Err(format!(
+            "-o {}: a reference is written as OpenEXR (with its halves); give it a .exr name",
+            args.output.display()
+        ));
+    }
     // The reference and its two halves, none of them the scene or a part being merged (or a
     // part's halves, which are read too).
     let (a, b) = (half_path(&args.output, "a"), half_path(&args.output, "b"));

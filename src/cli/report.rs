@@ -33,7 +33,8 @@ pub struct ReportArgs {
     #[arg(long, value_name = "SCENE.toml")]
     scene: Option<PathBuf>,
     /// A region of interest as a mask (EXR of the same size; a pixel counts when any channel is
-    /// above 0), named by its file name. Repeatable.
+    /// above 0), named by its file name, or NAME=M.exr. Repeatable; two of one name are
+    /// refused.
     #[arg(long = "mask", value_name = "M.exr")]
     masks: Vec<PathBuf>,
     /// A table to show, as JSON: {"title": "...", "columns": [...], "rows": [[...], ...],
@@ -169,9 +170,18 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
     };
     for path in &args.masks {
         let (w, h) = (reference.width as usize, reference.height as usize);
+        // `NAME=M.exr` as a render's `LABEL=FILE` (the name was taken so, but the mask was
+        // then read from the whole argument, which is no file).
+        let (name, path) = parse_render(&path.to_string_lossy())?;
+        // Two tables of one name could not be told apart, as two renders of one caption.
+        if regions.iter().any(|r| r.name == name) {
+            return Err(format!(
+                "two regions are named '{name}': name the masks apart (NAME=M.exr)"
+            ));
+        }
         regions.push(Region {
-            name: parse_render(&path.to_string_lossy())?.0,
-            mask: read_mask(path, w, h)?,
+            name,
+            mask: read_mask(&path, w, h)?,
         });
     }
     let tables = args

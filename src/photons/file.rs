@@ -293,9 +293,10 @@ pub fn check(path: &Path, options: &PhotonOptions) -> Result<(), String> {
     let cannot = |e: std::io::Error| format!("{name}: cannot read photon maps: {e}");
     let meta = std::fs::metadata(path).map_err(cannot)?;
     if !meta.is_file() {
-        // A named pipe (a shell's `<(...)`) can be opened and read once only, and a folder or
-        // a device is refused by [`read`]: checked whole there.
-        return Ok(());
+        // A named pipe (a shell's `<(...)`) can be opened and read once only: checked whole
+        // by [`read`]. A folder or a device is refused now, in [`read`]'s words (it was only
+        // once the scene had been read).
+        return crate::util::input::refuse(path).map_err(cannot);
     }
     let mut file = crate::util::input::open(path).map_err(cannot)?;
     let len = meta.len();

@@ -9,7 +9,7 @@ use std::os::unix::fs::FileTypeExt;
 use std::path::Path;
 
 /// Why `path` cannot be read as a file, if it cannot: a folder or a device (links followed).
-fn refuse(path: &Path) -> std::io::Result<()> {
+pub fn refuse(path: &Path) -> std::io::Result<()> {
     let kind = std::fs::metadata(path)?.file_type();
     let why = if kind.is_dir() {
         "is a folder"
