@@ -2,6 +2,8 @@
 //! every bad input (bad split, foreign or overlapping parts, missing tiles, bad photon-map
 //! files) is a one-line error with exit status 1 that leaves no output behind.
 
+mod common;
+
 use photondiff::render::part::read_part;
 use photondiff::scene::hash::scene_hash;
 use std::path::{Path, PathBuf};
@@ -443,6 +445,41 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
     args.extend(["--quiet"]);
     args.extend(PHOTONS);
     ok(&args);
+    writer.join().unwrap();
+    assert!(out.exists());
+    // The scene as a named pipe, with maps to match: read once, and hashed from what was read
+    // (a second read to hash it waited for a writer for ever, or hashed nothing).
+    std::fs::remove_file(&out).unwrap();
+    let scene_fifo = d.join("scene.fifo");
+    assert!(Command::new("mkfifo")
+        .arg(&scene_fifo)
+        .status()
+        .unwrap()
+        .success());
+    let text = std::fs::read(&scene_a).unwrap();
+    let writer = {
+        let fifo = scene_fifo.clone();
+        std::thread::spawn(move || std::fs::write(fifo, text).unwrap())
+    };
+    let mut child = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args([
+            "render",
+            s(&scene_fifo),
+            "-o",
+            s(&out),
+            "--photon-maps",
+            s(&maps),
+        ])
+        .args(["--quiet"])
+        .args(PHOTONS)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let status = common::wait_at_most(&mut child, std::time::Duration::from_secs(120))
+        .expect("a scene from a named pipe: the render did not finish in two minutes");
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert!(status.success(), "{stderr}");
     writer.join().unwrap();
     assert!(out.exists());
 }

@@ -16,18 +16,18 @@ use std::path::{Path, PathBuf};
 
 /// Loads the scene at `path` (its mesh files' reading a bar, `load`, when `progress`: a large
 /// mesh takes seconds to read) and prints its warnings.
-pub fn load_scene(path: &Path, progress: bool) -> Result<Scene, String> {
+pub fn load_scene(path: &Path, progress: bool) -> Result<(Scene, u64), String> {
     let bar = photondiff::util::progress::bar(progress, 1, "load");
-    let scene = photondiff::scene::file::load_scene_reporting(path, |done, total| {
+    let loaded = photondiff::scene::file::load_scene_hashed(path, |done, total| {
         if bar.length() != Some(total) {
             bar.set_length(total);
         }
         bar.set_position(done);
     });
     bar.finish_and_clear();
-    let scene = scene.map_err(|e| e.to_string())?;
+    let (scene, hash) = loaded.map_err(|e| e.to_string())?;
     warn_about_scene(path, &scene);
-    Ok(scene)
+    Ok((scene, hash))
 }
 
 /// The most worker threads `--threads` takes: far beyond any machine this runs on, and low

@@ -9,7 +9,6 @@ use photondiff::photons::trace::TraceCounts;
 use photondiff::render::defaults::RenderDefaults;
 use photondiff::render::stats::{MemoryStats, Stats};
 use photondiff::render::trace_photon_maps;
-use photondiff::scene::hash::scene_hash;
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -67,8 +66,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     let options = args.photons.options(&defaults, args.seed)?;
     super::start_trace(args.trace.as_deref())?;
     let mut stats = Stats::of_this_build();
-    let scene = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
-    let hash = scene_hash(&args.scene)?;
+    let (scene, hash) = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
     let (device, embree, bvh) = stats.time("build BVH", || {
         args.bvh.build(&scene, &args.scene, !args.quiet)
     })?;

@@ -8,7 +8,7 @@ use photondiff::reference::metrics::Regions;
 use photondiff::render::film::Film;
 use photondiff::render::part::{read_part, Part};
 use photondiff::render::stats::{MemoryStats, RegionNoise, Stats};
-use photondiff::scene::hash::{hex, scene_hash};
+use photondiff::scene::hash::hex;
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -112,7 +112,8 @@ fn settings_of(part: &Part) -> Result<(String, Vec<u64>), String> {
     }
 }
 
-/// The attribute naming the scene a reference was made of (its [`scene_hash`]).
+/// The attribute naming the scene a reference was made of (its content hash,
+/// [`photondiff::scene::hash::scene_hash`]).
 const SCENE_KEY: &str = "photondiff/scene_hash";
 
 /// The attribute counting the light paths and rays a reference traced ("P paths, R rays"):
@@ -339,12 +340,12 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         true => None,
         false => Some(stats.time("read references", || read_parts(&args.merge))?),
     };
-    let scene = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
+    let (scene, hash) = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
     let (device, embree, bvh) = stats.time("build BVH", || {
         args.bvh.build(&scene, &args.scene, !args.quiet)
     })?;
     stats.memory = MemoryStats::after_build(&scene, &device, bvh);
-    let hash = hex(scene_hash(&args.scene)?);
+    let hash = hex(hash);
     if let Some(parts) = parts {
         parts.check_scene(&hash)?;
         let reference = stats.time("merge", || merge(&parts.references, &parts.weights))?;

@@ -12,7 +12,6 @@ use photondiff::render::pass_part::write_pass_part;
 use photondiff::render::passes::{pass_photons, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
 use photondiff::render::stats::{MemoryStats, Stats};
 use photondiff::render::{load_photon_maps, Progressive, RenderOptions, Window};
-use photondiff::scene::hash::scene_hash;
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
 
@@ -250,8 +249,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let mut range_sum = None;
     super::start_trace(args.trace.as_deref())?;
     let mut stats = Stats::of_this_build();
-    let scene = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
-    let hash = scene_hash(&args.scene)?;
+    let (scene, hash) = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
     let (width, height) = (scene.camera.width, scene.camera.height);
     let window = match &tile {
         Some(tile) => Some(tile.window(width, height)?),

@@ -75,6 +75,16 @@ pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
 /// [`load_scene`], telling `progress` the bytes of mesh files read so far and their total,
 /// every few megabytes and after each file: large meshes take seconds to read.
 pub fn load_scene_reporting(path: &Path, progress: impl Fn(u64, u64)) -> Result<Scene, SceneError> {
+    load_scene_hashed(path, progress).map(|(scene, _)| scene)
+}
+
+/// [`load_scene_reporting`], with the scene's content hash ([`crate::scene::hash`]) taken
+/// from the text it read: a scene given as a named pipe (`<(...)`) can be read once only, and
+/// hashing it by a second read hung (a FIFO waits for a writer) or hashed nothing.
+pub fn load_scene_hashed(
+    path: &Path,
+    progress: impl Fn(u64, u64),
+) -> Result<(Scene, u64), SceneError> {
     let err = |message: String| SceneError {
         file: path.to_path_buf(),
         message,
@@ -82,9 +92,14 @@ pub fn load_scene_reporting(path: &Path, progress: impl Fn(u64, u64)) -> Result<
     let text =
         crate::util::input::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    parse(&text)
+    let scene = parse(&text)
         .and_then(|file| build(file, base, &progress))
-        .map_err(err)
+        .map_err(err)?;
+    // Its errors name the scene first, as `err` does.
+    let prefix = format!("{}: ", path.display());
+    let hash = crate::scene::hash::scene_hash_of(path, text.as_bytes())
+        .map_err(|e| err(e.strip_prefix(&prefix).unwrap_or(&e).to_string()))?;
+    Ok((scene, hash))
 }
 
 /// Parses scene text; `base` is the folder mesh paths are relative to.

@@ -46,14 +46,20 @@ fn mesh_files(text: &str, base: &Path) -> Vec<(String, PathBuf)> {
 
 /// The content hash of the scene file at `path` and its mesh files.
 pub fn scene_hash(path: &Path) -> Result<u64, String> {
+    let scene = crate::util::input::read(path)
+        .map_err(|e| format!("{}: cannot read: {e}", path.display()))?;
+    scene_hash_of(path, &scene)
+}
+
+/// [`scene_hash`] of the scene file at `path` whose bytes, already read, are `scene`.
+pub fn scene_hash_of(path: &Path, scene: &[u8]) -> Result<u64, String> {
     let read = |p: &Path| {
         crate::util::input::read(p).map_err(|e| format!("{}: cannot read: {e}", p.display()))
     };
-    let scene = read(path)?;
     let base = path.parent().unwrap_or(Path::new(""));
     let mut hash = fnv1a(FNV_OFFSET, &(scene.len() as u64).to_le_bytes());
-    hash = fnv1a(hash, &scene);
-    for (field, mesh) in mesh_files(&String::from_utf8_lossy(&scene), base) {
+    hash = fnv1a(hash, scene);
+    for (field, mesh) in mesh_files(&String::from_utf8_lossy(scene), base) {
         // Named with the scene and the field: a `[meshes.NAME]` no instance places is read
         // here only, and its bare path said nothing of where it came from.
         let bytes = read(&mesh).map_err(|e| format!("{}: {field}: {e}", path.display()))?;
