@@ -178,7 +178,7 @@ fn maps_traced_for_an_estimator_take_its_defaults() {
     args.extend(["--photon-maps", s(&default_maps)]);
     let e = error(&args);
     assert!(
-        e.ends_with("photon maps traced with other settings: --global-aim is 0.15 in the file, 0 in this render"),
+        e.ends_with("photon maps traced with other settings: --global-aim is 0.15 in the file, 0 in this render (given, or the default of the --estimator: `photons` takes the render's --estimator and photon options)"),
         "{e}"
     );
     // An estimator without photon maps has none to trace.
@@ -362,7 +362,7 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
         )
     );
     let e = render(&scene_a, &maps, &["--overlap", "16"]);
-    assert!(e.ends_with("photon maps traced with other settings: --overlap is 32 in the file, 16 in this render"), "{e}");
+    assert!(e.ends_with("photon maps traced with other settings: --overlap is 32 in the file, 16 in this render (given, or the default of the --estimator: `photons` takes the render's --estimator and photon options)"), "{e}");
     let cut = d.join("cut.pdm");
     std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
     let e = render(&scene_a, &cut, &[]);

@@ -173,7 +173,14 @@ fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
 #[test]
 fn photons_trace_their_stages_and_maps_and_write_their_statistics() {
     let dir = tempfile::tempdir().unwrap();
-    let args = ["--caustic-photons", "3000", "--photons", "2000"];
+    let args = [
+        "--caustic-photons",
+        "3000",
+        "--photons",
+        "2000",
+        "--threads",
+        "2",
+    ];
     let (out, trace, stats) = run_traced(dir.path(), "photons", "maps.pdm", &args);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
@@ -211,6 +218,8 @@ fn photons_trace_their_stages_and_maps_and_write_their_statistics() {
     );
     assert_eq!(stats["memory"]["bvh"]["quality"], "medium");
     assert!(stats["memory"]["peak_resident_bytes"].as_u64().unwrap() > 0);
+    // The threads the photons were traced on (it read 0).
+    assert_eq!(stats["threads"], 2);
 }
 
 /// `render`, `photons` and `reference` alike: an unwritable `--trace` path is one line on stderr, exit 1,

@@ -252,11 +252,7 @@ fn probe_writable(path: &Path) -> Result<(), String> {
         .map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     let path = target.as_path();
     create_parent(path)?;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let probe = path.with_file_name(format!(".{name}.{}.probe", std::process::id()));
+    let probe = photondiff::util::atomic::scratch_beside(path, "probe");
     std::fs::File::create(&probe).map_err(|e| format!("{}: cannot write: {e}", path.display()))?;
     let _ = std::fs::remove_file(&probe);
     Ok(())

@@ -364,7 +364,9 @@ fn check_settings(header: &Header, options: &PhotonOptions) -> Result<(), String
         let theirs = header.settings.get(key).map_or("(none)", |v| v.as_str());
         if theirs != value {
             return Err(format!(
-                "photon maps traced with other settings: {key} is {theirs} in the file, {value} in this render"
+                "photon maps traced with other settings: {key} is {theirs} in the file, {value} in \
+                 this render (given, or the default of the --estimator: `photons` takes the \
+                 render's --estimator and photon options)"
             ));
         }
     }
@@ -468,7 +470,9 @@ mod tests {
         let other = PhotonOptions { seed: 3, ..options };
         assert_eq!(
             decode(&bytes, 0xabc, &other).err().unwrap(),
-            "photon maps traced with other settings: --seed is 0 in the file, 3 in this render"
+            "photon maps traced with other settings: --seed is 0 in the file, 3 in this render \
+             (given, or the default of the --estimator: `photons` takes the render's --estimator \
+             and photon options)"
         );
         // Every truncation is an error naming what is wrong, never a panic: too short for the
         // magic, or a file shorter than its header says.

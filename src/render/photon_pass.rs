@@ -26,6 +26,8 @@ pub fn trace_photon_maps(
         .num_threads(threads)
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    // (`photons` wrote 0; a render's image sets it again, to the same count.)
+    stats.threads = pool.current_num_threads();
     let tracer = PhotonTracer::new(scene, embree, options);
     let total = (options.caustic_photons + options.global_photons) as u64;
     let bar = crate::util::progress::bar(progress, total, "photons");

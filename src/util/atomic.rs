@@ -14,11 +14,22 @@ use std::path::{Path, PathBuf};
 /// The temporary file `path` is written to first: hidden, in the same folder (so the rename
 /// stays on one file system), unique to this process.
 fn temporary(path: &Path) -> PathBuf {
+    scratch_beside(path, "tmp")
+}
+
+/// A hidden scratch file beside `path`, named after it, this process and `tag`. The name is
+/// cut to 200 bytes first: a destination's name may take all 255 bytes a name can, and the
+/// scratch's own was refused as "File name too long", an error that blamed the user's name.
+pub fn scratch_beside(path: &Path, tag: &str) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    path.with_file_name(format!(".{name}.{}.tmp", std::process::id()))
+    let mut cut = name.len().min(200);
+    while !name.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    path.with_file_name(format!(".{}.{}.{tag}", &name[..cut], std::process::id()))
 }
 
 /// Writes `path` atomically with `write`, which receives a buffered writer; on any error the
@@ -122,6 +133,18 @@ mod tests {
         .unwrap_err();
         assert!(err.ends_with("cannot write: disk full"), "{err}");
         assert_eq!(std::fs::read(&path).unwrap(), b"old");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    /// A name of 255 bytes, the most a name takes, is written (its scratch file's name was
+    /// too long).
+    #[test]
+    fn the_longest_name_is_written() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(format!("{}.exr", "é".repeat(125)));
+        assert_eq!(path.file_name().unwrap().len(), 254);
+        write_bytes(&path, b"long").unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"long");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
     }
 
