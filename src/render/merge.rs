@@ -291,9 +291,11 @@ fn copy_window(part: &Film, window: Window, film: &mut Film) {
 
 /// The statistics of the whole: every count and time summed over the parts (stage times are
 /// then the seconds of all processes together, not wall-clock time); the photon maps' figures,
-/// the same in every part, and the light tracer's noise are taken from the first part.
+/// the same in every part, and the light tracer's noise are taken from the first part; the
+/// progressive report as [`merge_progressive`] says.
 pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
     let mut total: Option<Value> = None;
+    let mut reports = Vec::new();
     for part in parts {
         let Some(text) = part.metadata.get("photondiff/stats") else {
             continue;
@@ -304,6 +306,7 @@ pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
                 part.path.display()
             )
         })?;
+        reports.extend(value.get("progressive").filter(|p| p.is_object()).cloned());
         total = Some(match total {
             None => value,
             Some(mut t) => {
@@ -312,12 +315,36 @@ pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
             }
         });
     }
+    if let Some(t) = total.as_mut().filter(|_| !reports.is_empty()) {
+        t["progressive"] = merge_progressive(&reports);
+    }
     Ok(total.unwrap_or(Value::Null))
+}
+
+/// The progressive report of the parts' `reports`. It describes the run, not a count: every
+/// part carries the whole render's pass count and schedule (summed, two ranges of a 3-pass
+/// render read 6 passes and an alpha of 1.0), so they come from the first part; the last
+/// pass's footprint factor is the smallest of the parts', the seconds per pass their mean;
+/// and the noise, which the parts' own estimates do not give (a range's is of its passes, a
+/// tile's of its pixels), is left out (`null`: `photondiff compare` against a reference, or
+/// the merged image's own passes, tell it).
+fn merge_progressive(reports: &[Value]) -> Value {
+    let mut report = reports[0].clone();
+    let numbers = |key: &'static str| reports.iter().filter_map(move |r| r.get(key)?.as_f64());
+    if let Some(least) = numbers("last_area_factor").reduce(f64::min) {
+        report["last_area_factor"] = least.into();
+    }
+    let seconds: Vec<f64> = numbers("seconds_per_pass").collect();
+    if !seconds.is_empty() {
+        report["seconds_per_pass"] = (seconds.iter().sum::<f64>() / seconds.len() as f64).into();
+    }
+    report["noise"] = Value::Null;
+    report
 }
 
 /// Adds the numbers of `b` into `a`, field by field; stages are added by name.
 fn add(a: &mut Value, b: &Value, key: &str) {
-    if matches!(key, "photon_maps" | "reference_noise") {
+    if matches!(key, "photon_maps" | "reference_noise" | "progressive") {
         return;
     }
     match (a, b) {
@@ -368,6 +395,38 @@ mod tests {
                 .map(|(k, v)| (format!("photondiff/{k}"), v.to_string()))
                 .collect(),
         }
+    }
+
+    /// Counts and times are summed; the progressive report is the run's (two ranges of a
+    /// 3-pass render summed read 6 passes, alpha 1.0 and the noises added).
+    #[test]
+    fn merged_statistics_sum_counts_but_not_the_progressive_report() {
+        let stats = |rays: u64, factor: f64, seconds: f64| {
+            serde_json::json!({
+                "rays": {"camera": rays},
+                "threads": 1,
+                "progressive": {
+                    "passes": 3, "alpha": 0.5, "global_alpha": 0.667,
+                    "last_area_factor": factor, "stop": "passes", "seconds_per_pass": seconds,
+                    "noise": {"whole": 0.1, "caustic": 0.2, "caustic_pixels": 40}
+                }
+            })
+            .to_string()
+        };
+        let a = part("a.exr", &[("stats", &stats(100, 1.0, 0.2))]);
+        let b = part("b.exr", &[("stats", &stats(200, 0.625, 0.4))]);
+        let merged = merge_stats(&[a, b]).unwrap();
+        assert_eq!(merged["rays"]["camera"], 300);
+        assert_eq!(merged["threads"], 2);
+        let p = &merged["progressive"];
+        assert_eq!(
+            (&p["passes"], &p["alpha"], &p["global_alpha"]),
+            (&3.into(), &0.5.into(), &0.667.into())
+        );
+        assert_eq!(p["last_area_factor"], 0.625);
+        assert!((p["seconds_per_pass"].as_f64().unwrap() - 0.3).abs() < 1e-12);
+        assert_eq!(p["stop"], "passes");
+        assert!(p["noise"].is_null());
     }
 
     #[test]
