@@ -555,6 +555,27 @@ fn the_command_line_reports_passes_and_noise_and_stops_by_its_rules() {
         (p["passes"].as_u64(), p["stop"].as_str()),
         (Some(2), Some("target_noise"))
     );
+    // The summary says why, in words (it printed the Debug name, `TargetNoise`).
+    let out = photondiff(&[
+        "render",
+        "--estimator",
+        "pd",
+        "--photons",
+        "2000",
+        "--caustic-photons",
+        "2000",
+        "--target-noise",
+        "100",
+        "-o",
+        exr.to_str().unwrap(),
+        scene,
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("  progressive: 2 passes (")
+            && stderr.contains("stopped by the target noise)"),
+        "{stderr}"
+    );
     // A budget too short for a second pass stops after the first.
     let p = run(&["--time-budget", "0.000001"])["progressive"].clone();
     assert_eq!(

@@ -298,18 +298,16 @@ fn an_output_linked_to_a_file_not_yet_written_is_written_through_the_link() {
     std::fs::write(&scene, text).unwrap();
     let link = dir.path().join("image.exr");
     std::os::unix::fs::symlink("later/target.exr", &link).unwrap();
-    let out = Command::new(EXE)
-        .arg("render")
-        .arg(&scene)
-        .args(["--estimator", "direct", "-q", "-o"])
-        .arg(&link)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let args: [&std::ffi::OsStr; 7] = [
+        "render".as_ref(),
+        scene.as_ref(),
+        "--estimator".as_ref(),
+        "direct".as_ref(),
+        "-q".as_ref(),
+        "-o".as_ref(),
+        link.as_ref(),
+    ];
+    common::run_ok(args);
     assert!(link.is_symlink());
     let film = photondiff::render::film::Film::read_exr(&dir.path().join("later/target.exr"));
     assert_eq!(film.map(|f| (f.width, f.height)), Ok((32, 24)));

@@ -143,6 +143,18 @@ pub enum StopReason {
     Interrupted,
 }
 
+impl StopReason {
+    /// As the statistics' summary says it (the JSON's names, in words).
+    pub fn words(self) -> &'static str {
+        match self {
+            StopReason::Passes => "the passes asked for",
+            StopReason::TimeBudget => "the time budget",
+            StopReason::TargetNoise => "the target noise",
+            StopReason::Interrupted => "an interrupt",
+        }
+    }
+}
+
 /// What a progressive render reports (in the statistics and the EXR metadata).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PassReport {

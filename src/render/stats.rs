@@ -348,11 +348,11 @@ impl Stats {
         }
         if let Some(p) = &self.progressive {
             out += &format!(
-                "  progressive: {} passes ({:.3} s each, stopped by {:?}), alpha {:.3} (global \
+                "  progressive: {} passes ({:.3} s each, stopped by {}), alpha {:.3} (global \
                  {:.3}), last caustic footprint area factor {:.4}; noise of the mean {}\n",
                 p.passes,
                 p.seconds_per_pass,
-                p.stop,
+                p.stop.words(),
                 p.alpha,
                 p.global_alpha,
                 p.last_area_factor,
