@@ -486,21 +486,21 @@ fn the_command_line_reports_passes_and_noise_and_stops_by_its_rules() {
     let scene = scene.to_str().unwrap();
     let exr = dir.path().join("img.exr");
     let json = dir.path().join("stats.json");
+    // The render's options but for --quiet and what `extra` adds.
+    let render = [
+        "render",
+        "--estimator",
+        "pd",
+        "--photons",
+        "2000",
+        "--caustic-photons",
+        "2000",
+        "-o",
+        exr.to_str().unwrap(),
+    ];
     let run = |extra: &[&str]| -> serde_json::Value {
-        let mut args = vec![
-            "render",
-            "--quiet",
-            "--estimator",
-            "pd",
-            "--photons",
-            "2000",
-            "--caustic-photons",
-            "2000",
-            "-o",
-            exr.to_str().unwrap(),
-            "--stats-json",
-            json.to_str().unwrap(),
-        ];
+        let mut args = render.to_vec();
+        args.extend(["--quiet", "--stats-json", json.to_str().unwrap()]);
         args.extend(extra);
         args.push(scene);
         let out = photondiff(&args);
@@ -556,20 +556,7 @@ fn the_command_line_reports_passes_and_noise_and_stops_by_its_rules() {
         (Some(2), Some("target_noise"))
     );
     // The summary says why, in words (it printed the Debug name, `TargetNoise`).
-    let out = photondiff(&[
-        "render",
-        "--estimator",
-        "pd",
-        "--photons",
-        "2000",
-        "--caustic-photons",
-        "2000",
-        "--target-noise",
-        "100",
-        "-o",
-        exr.to_str().unwrap(),
-        scene,
-    ]);
+    let out = photondiff(&[&render[..], &["--target-noise", "100", scene]].concat());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.contains("  progressive: 2 passes (")
