@@ -432,3 +432,84 @@ fn packets_trace_the_paths_single_rays_trace() {
         }
     }
 }
+
+/// The canonical scene (segments 32, 64 x 48) with every length times `s` and the light's
+/// intensity times `s^2`: the same image in any unit.
+fn scaled_scene(s: f64) -> String {
+    let mut table: toml::Table = include_str!("../scenes/caustic-sphere.toml")
+        .parse()
+        .unwrap();
+    let scale = |v: &mut toml::Value, f: f64| match v {
+        toml::Value::Array(a) => a
+            .iter_mut()
+            .for_each(|x| *x = toml::Value::Float(x.as_float().unwrap() * f)),
+        toml::Value::Float(x) => *x *= f,
+        _ => unreachable!(),
+    };
+    let camera = table["camera"].as_table_mut().unwrap();
+    for key in ["eye", "look_at"] {
+        scale(camera.get_mut(key).unwrap(), s);
+    }
+    camera.insert("width".into(), 64.into());
+    camera.insert("height".into(), 48.into());
+    for light in table["lights"].as_array_mut().unwrap() {
+        let light = light.as_table_mut().unwrap();
+        scale(light.get_mut("position").unwrap(), s);
+        scale(light.get_mut("intensity").unwrap(), s * s);
+    }
+    for shape in table["shapes"].as_array_mut().unwrap() {
+        let shape = shape.as_table_mut().unwrap();
+        for key in ["corner", "edge_u", "edge_v", "center", "radius"] {
+            if let Some(v) = shape.get_mut(key) {
+                scale(v, s);
+            }
+        }
+        if shape["type"].as_str() == Some("sphere") {
+            shape.insert("segments".into(), 32.into());
+        }
+    }
+    toml::to_string(&table).unwrap()
+}
+
+/// A scene a micrometre across renders as in metres: its extent was taken as at least 1e-3,
+/// which set its ray offsets and footprint limits for a scene a millimetre across (here
+/// relRMSE 0.0142 against the unscaled image at 1e-6; 0.070 in a sweep's 2-pass render; the
+/// caustic lost at 1e-12, without a word).
+#[test]
+fn a_scene_renders_alike_in_any_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let render = |s: f64| {
+        let scene = dir.path().join(format!("scene-{s:e}.toml"));
+        std::fs::write(&scene, scaled_scene(s)).unwrap();
+        let out = scene.with_extension("exr");
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+            .arg("render")
+            .arg(&scene)
+            .args(["-q", "--threads", "1", "--passes", "1", "-o"])
+            .arg(&out)
+            .args(["--photons", "20000", "--caustic-photons", "20000"])
+            .output()
+            .unwrap();
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        photondiff::render::film::Film::read_exr(&out)
+            .unwrap()
+            .pixels
+    };
+    let metres = render(1.0);
+    let mean = metres.iter().map(|p| p.element_sum()).sum::<f64>() / (3 * metres.len()) as f64;
+    for s in [1e-6, 1e3] {
+        let other = render(s);
+        let squares: f64 = other
+            .iter()
+            .zip(&metres)
+            .map(|(a, b)| (*a - *b).length_squared())
+            .sum();
+        let rel_rmse = (squares / (3 * metres.len()) as f64).sqrt() / mean;
+        // Measured: 0.0027 at 1e-6 (0.0142 before), 1e-6 at 1e3.
+        assert!(rel_rmse < 0.005, "scale {s}: relRMSE {rel_rmse:.4}");
+    }
+}

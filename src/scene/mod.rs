@@ -326,7 +326,7 @@ impl Scene {
         if lo.x > hi.x {
             return 2e-5;
         }
-        let extent = (hi - lo).length().max(1e-3);
+        let extent = size_or_default(hi - lo);
         let smallest = boxes
             .iter()
             .map(|[a, b]| (*b - *a).length())
@@ -338,13 +338,26 @@ impl Scene {
             .max(5e-7 * largest_coordinate)
     }
 
-    /// The diagonal of the scene's bounding box (at least 1e-3), to scale ray offsets.
+    /// The diagonal of the scene's bounding box ([`size_or_default`]), to scale ray offsets and
+    /// the photons' footprint limits.
     pub fn extent(&self) -> f64 {
         let [lo, hi] = bounds(self.mesh_bounds().into_iter().flatten());
         if lo.x > hi.x {
             return 1.0;
         }
-        (hi - lo).length().max(1e-3)
+        size_or_default(hi - lo)
+    }
+}
+
+/// The length of `diagonal`, or 1e-3 where the scene has no size to speak of. (It was at least
+/// 1e-3 in any case: a scene a micrometre across, in metres, had its ray offsets and footprint
+/// limits set for a millimetre, and its caustic blurred, at 1e-12 lost, without a word.)
+fn size_or_default(diagonal: DVec3) -> f64 {
+    let length = diagonal.length();
+    if length > 1e-20 && length.is_finite() {
+        length
+    } else {
+        1e-3
     }
 }
 
