@@ -290,18 +290,17 @@ fn a_robust_bvh_traces_a_quad_lights_photons_as_the_ordinary_one_does() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/cornell-glass.toml");
     let photons = |name: &str, extra: &[&str]| {
         let out = dir.path().join(name);
-        let run = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
-            .args(["photons", scene, "-q", "--threads", "2"])
-            .args(["--photons", "3000", "--caustic-photons", "2000", "-o"])
-            .arg(&out)
-            .args(extra)
-            .output()
-            .unwrap();
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
+        let mut args = vec![
+            "photons",
+            scene,
+            "-q",
+            "--threads",
+            "2",
+            "--photons",
+            "3000",
+        ];
+        args.extend(["--caustic-photons", "2000", "-o", out.to_str().unwrap()]);
+        common::run_ok(args.iter().chain(extra));
         std::fs::read(out).unwrap()
     };
     let ordinary = photons("ordinary.bin", &[]);

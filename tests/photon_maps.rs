@@ -2,6 +2,8 @@
 //! irradiance against an analytic point light, differentials against finite differences through
 //! the glass sphere, path classes, thread independence, and the caustic's energy.
 
+mod common;
+
 use glam::DVec3;
 use photondiff::embree::{self, Device};
 use photondiff::estimate::{
@@ -482,20 +484,23 @@ fn a_scene_renders_alike_in_any_unit() {
         let scene = dir.path().join(format!("scene-{s:e}.toml"));
         std::fs::write(&scene, scaled_scene(s)).unwrap();
         let out = scene.with_extension("exr");
-        let run = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
-            .arg("render")
-            .arg(&scene)
-            .args(["-q", "--threads", "1", "--passes", "1", "-o"])
-            .arg(&out)
-            .args(["--photons", "20000", "--caustic-photons", "20000"])
-            .output()
-            .unwrap();
-        assert!(
-            run.status.success(),
-            "{}",
-            String::from_utf8_lossy(&run.stderr)
-        );
-        photondiff::render::film::Film::read_exr(&out)
+        let (scene, out) = (scene.to_str().unwrap(), out.to_str().unwrap());
+        common::run_ok([
+            "render",
+            scene,
+            "-q",
+            "--threads",
+            "1",
+            "--passes",
+            "1",
+            "-o",
+            out,
+            "--photons",
+            "20000",
+            "--caustic-photons",
+            "20000",
+        ]);
+        photondiff::render::film::Film::read_exr(Path::new(out))
             .unwrap()
             .pixels
     };
