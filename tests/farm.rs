@@ -493,6 +493,44 @@ fn part(scene: &Path, out: &Path, extra: &[&str]) -> PathBuf {
     out.to_path_buf()
 }
 
+/// A part's summary and JSON tell its own passes from the whole render's (they said "3
+/// passes" for passes 1 to 3 of 4); the merge of `merge_args`' parts, of all 4.
+fn pass_range_reports(scene: &Path, d: &Path, merge_args: &[String]) {
+    let json = d.join("r1.json");
+    let image = d.join("r1b.exr");
+    let mut args = vec!["render", s(scene), "-o", s(&image)];
+    args.extend(PHOTONS);
+    args.extend([
+        "--passes",
+        "4",
+        "--pass-range",
+        "1..4",
+        "--stats-json",
+        s(&json),
+    ]);
+    let out = run(&args);
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("progressive: passes 1 to 3 of a 4-pass render ("),
+        "{stderr}"
+    );
+    let read = |p: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    let p = &read(&json)["progressive"];
+    assert_eq!(
+        (&p["passes"], &p["pass_range"]),
+        (&4.into(), &serde_json::json!([1, 4]))
+    );
+    let merged = d.join("merged.json");
+    let mut args: Vec<&str> = merge_args.iter().map(|a| a.as_str()).collect();
+    args.extend(["--stats-json", s(&merged)]);
+    ok(&args);
+    let p = &read(&merged)["progressive"];
+    assert_eq!((&p["passes"], p.get("pass_range")), (&4.into(), None));
+}
+
 #[test]
 fn pass_ranges_and_tiles_merge_into_the_single_process_image_bit_for_bit() {
     let dir = tempfile::tempdir().unwrap();
@@ -518,6 +556,7 @@ fn pass_ranges_and_tiles_merge_into_the_single_process_image_bit_for_bit() {
     );
     let (out, args) = merge("ranges.exr", &[&r1, &r0]);
     ok(&args.iter().map(|a| a.as_str()).collect::<Vec<_>>());
+    pass_range_reports(&scene, d, &args);
     assert!(
         bits(&out) == bits(&whole),
         "2 pass ranges differ from one process"

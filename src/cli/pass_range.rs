@@ -71,6 +71,7 @@ pub fn render(
     stats.finish_passes(sum.passes);
     stats.progressive = Some(PassReport {
         passes: total,
+        pass_range: Some([range.start, range.end]),
         alpha: progressive.alpha,
         global_alpha: progressive.global_alpha,
         last_area_factor: area_factor(progressive.alpha, range.end - 1),

@@ -472,7 +472,7 @@ pub(crate) fn warn_shortfalls(
         _ => global_given,
     };
     // The counts are totals over the passes: said so, as the user asked for a pass's worth.
-    let passes = stats.progressive.as_ref().map_or(1, |p| p.passes);
+    let passes = stats.progressive.as_ref().map_or(1, |p| p.rendered());
     let over = if passes > 1 {
         format!(" (totals over {passes} passes)")
     } else {

@@ -339,6 +339,10 @@ fn merge_progressive(reports: &[Value]) -> Value {
         report["seconds_per_pass"] = (seconds.iter().sum::<f64>() / seconds.len() as f64).into();
     }
     report["noise"] = Value::Null;
+    // The merged image holds the parts' passes together: no one part's range.
+    if let Some(fields) = report.as_object_mut() {
+        fields.remove("pass_range");
+    }
     report
 }
 
@@ -406,7 +410,7 @@ mod tests {
                 "rays": {"camera": rays},
                 "threads": 1,
                 "progressive": {
-                    "passes": 3, "alpha": 0.5, "global_alpha": 0.667,
+                    "passes": 3, "pass_range": [0, 1], "alpha": 0.5, "global_alpha": 0.667,
                     "last_area_factor": factor, "stop": "passes", "seconds_per_pass": seconds,
                     "noise": {"whole": 0.1, "caustic": 0.2, "caustic_pixels": 40}
                 }
@@ -427,6 +431,7 @@ mod tests {
         assert!((p["seconds_per_pass"].as_f64().unwrap() - 0.3).abs() < 1e-12);
         assert_eq!(p["stop"], "passes");
         assert!(p["noise"].is_null());
+        assert!(p.get("pass_range").is_none(), "{p}");
     }
 
     #[test]

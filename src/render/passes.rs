@@ -158,8 +158,13 @@ impl StopReason {
 /// What a progressive render reports (in the statistics and the EXR metadata).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct PassReport {
-    /// Passes rendered.
+    /// Passes of the render: those rendered, or for a `--pass-range` part the whole render's
+    /// count, its own passes being [`PassReport::pass_range`].
     pub passes: u64,
+    /// A `--pass-range A..B` part's passes, `[A, B]` (B not rendered); `None` for a whole
+    /// render and in a merge's report.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pass_range: Option<[u64; 2]>,
     /// The caustic map's schedule's `alpha`.
     pub alpha: f64,
     /// The global map's schedule's `alpha`.
@@ -172,6 +177,22 @@ pub struct PassReport {
     pub seconds_per_pass: f64,
     /// The noise of the mean, estimated from the passes.
     pub noise: NoiseEstimate,
+}
+
+impl PassReport {
+    /// The passes this run rendered (a part's own, not the whole render's).
+    pub fn rendered(&self) -> u64 {
+        self.pass_range.map_or(self.passes, |[a, b]| b - a)
+    }
+
+    /// "N passes", or a part's "passes A to B - 1 of an N-pass render".
+    pub fn describe_passes(&self) -> String {
+        match self.pass_range {
+            None => format!("{} passes", self.passes),
+            Some([a, b]) if b == a + 1 => format!("pass {a} of a {}-pass render", self.passes),
+            Some([a, b]) => format!("passes {a} to {} of a {}-pass render", b - 1, self.passes),
+        }
+    }
 }
 
 /// A progressive render's settings: everything pass `i` depends on besides `i`.
@@ -396,6 +417,7 @@ impl Progressive<'_> {
         stats.finish_passes(sum.passes);
         stats.progressive = Some(PassReport {
             passes: sum.passes,
+            pass_range: None,
             alpha: self.alpha,
             global_alpha: self.global_alpha,
             last_area_factor: area_factor(self.alpha, sum.passes.saturating_sub(1)),

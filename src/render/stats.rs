@@ -348,9 +348,9 @@ impl Stats {
         }
         if let Some(p) = &self.progressive {
             out += &format!(
-                "  progressive: {} passes ({:.3} s each, stopped by {}), alpha {:.3} (global \
+                "  progressive: {} ({:.3} s each, stopped by {}), alpha {:.3} (global \
                  {:.3}), last caustic footprint area factor {:.4}; noise of the mean {}\n",
-                p.passes,
+                p.describe_passes(),
                 p.seconds_per_pass,
                 p.stop.words(),
                 p.alpha,
