@@ -473,17 +473,19 @@ fn scaled_scene(s: f64) -> String {
     toml::to_string(&table).unwrap()
 }
 
-/// A scene a micrometre across renders as in metres: its extent was taken as at least 1e-3,
-/// which set its ray offsets and footprint limits for a scene a millimetre across (here
-/// relRMSE 0.0142 against the unscaled image at 1e-6; 0.070 in a sweep's 2-pass render; the
-/// caustic lost at 1e-12, without a word).
+/// A scene a micrometre across renders as in metres, with every estimator. Its extent was
+/// taken as at least 1e-3, which set its ray offsets and footprint limits for a scene a
+/// millimetre across (relRMSE 0.0142 against the unscaled image at 1e-6, the caustic lost at
+/// 1e-12, without a word). Then two absolute lengths were found: the aimed global photons'
+/// target was 1e-9 wider than the sphere (at 1e-12 the global map held 45 photons for 346),
+/// and `jensen`'s squared gather radius was at least 1e-12 (relRMSE 0.42 at 1e-6).
 #[test]
 fn a_scene_renders_alike_in_any_unit() {
     let dir = tempfile::tempdir().unwrap();
-    let render = |s: f64| {
+    let render = |s: f64, estimator: &str| {
         let scene = dir.path().join(format!("scene-{s:e}.toml"));
         std::fs::write(&scene, scaled_scene(s)).unwrap();
-        let out = scene.with_extension("exr");
+        let out = dir.path().join(format!("{estimator}-{s:e}.exr"));
         let (scene, out) = (scene.to_str().unwrap(), out.to_str().unwrap());
         common::run_ok([
             "render",
@@ -493,6 +495,8 @@ fn a_scene_renders_alike_in_any_unit() {
             "1",
             "--passes",
             "1",
+            "--estimator",
+            estimator,
             "-o",
             out,
             "--photons",
@@ -504,17 +508,23 @@ fn a_scene_renders_alike_in_any_unit() {
             .unwrap()
             .pixels
     };
-    let metres = render(1.0);
-    let mean = metres.iter().map(|p| p.element_sum()).sum::<f64>() / (3 * metres.len()) as f64;
-    for s in [1e-6, 1e3] {
-        let other = render(s);
-        let squares: f64 = other
-            .iter()
-            .zip(&metres)
-            .map(|(a, b)| (*a - *b).length_squared())
-            .sum();
-        let rel_rmse = (squares / (3 * metres.len()) as f64).sqrt() / mean;
-        // Measured: 0.0027 at 1e-6 (0.0142 before), 1e-6 at 1e3.
-        assert!(rel_rmse < 0.005, "scale {s}: relRMSE {rel_rmse:.4}");
+    for estimator in ["integrated", "jensen"] {
+        let metres = render(1.0, estimator);
+        let mean = metres.iter().map(|p| p.element_sum()).sum::<f64>() / (3 * metres.len()) as f64;
+        for s in [1e-12, 1e-9, 1e-6, 1e3] {
+            let other = render(s, estimator);
+            let squares: f64 = other
+                .iter()
+                .zip(&metres)
+                .map(|(a, b)| (*a - *b).length_squared())
+                .sum();
+            let rel_rmse = (squares / (3 * metres.len()) as f64).sqrt() / mean;
+            // Measured: 1.4e-4 (integrated) and 9e-5 (jensen) at 1e-12, 1e-9 and 1e-6; before
+            // the fixes 0.26, 0.030 and 0.0027 (integrated), 0.42 at 1e-6 (jensen).
+            assert!(
+                rel_rmse < 0.001,
+                "{estimator} at scale {s}: relRMSE {rel_rmse:.6}"
+            );
+        }
     }
 }

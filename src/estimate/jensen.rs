@@ -31,7 +31,11 @@ impl RadianceEstimator for JensenEstimate<'_> {
         let r2 = if found.len() < self.k {
             (self.max_radius * self.max_radius) as f32
         } else {
-            found[found.len() - 1].0.max(1e-12)
+            // Above zero (k photons on one point), by a part of the largest radius: 1e-12
+            // whatever the scene's size blurred every gather of a scene a micrometre across.
+            found[found.len() - 1]
+                .0
+                .max((1e-12 * self.max_radius * self.max_radius) as f32)
         };
         let x = q.position.as_vec3();
         let n = q.normal.as_vec3();

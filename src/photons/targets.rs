@@ -90,10 +90,14 @@ fn bounding_sphere(positions: &[[f32; 3]]) -> Target {
     );
     let center = (lo + hi) * 0.5;
     let radius = points.map(|p| (p - center).length()).fold(0.0, f64::max);
-    // A hair larger, so that rays grazing the tessellated surface are inside the cone.
+    // A hair larger, so that rays grazing the tessellated surface are inside the cone: by a
+    // part of its size and of its place's, as the positions' rounding is. (It was 1e-9 more
+    // whatever the size: a sphere 1e-9 across was aimed at as twice its size, and most aimed
+    // global photons missed it.)
+    let size = radius.max(center.abs().max_element());
     Target {
         center,
-        radius: radius * (1.0 + 1e-6) + 1e-9,
+        radius: radius * (1.0 + 1e-6) + 1e-9 * size,
     }
 }
 
