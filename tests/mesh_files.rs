@@ -40,6 +40,21 @@ fn ply_polygons_are_fan_triangulated_and_normals_kept() {
     assert_eq!((m.report.faces, m.report.polygons), (1, 1));
 }
 
+/// An element's values may wrap onto the next line (a long face list); only an element that
+/// begins mid-line is refused (`broken_ascii_ply_files_name_the_element_and_line`).
+#[test]
+fn ascii_ply_values_may_wrap_onto_the_next_line() {
+    let m = ok(
+        "wrapped.ply",
+        &format!("{PLY_TRIANGLE_HEADER}0 0\n0\n1 0 0\n0 1\n   0\n3 0\n1\n2\n"),
+    );
+    assert_eq!(
+        m.mesh.positions,
+        vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    );
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2]]);
+}
+
 #[test]
 fn obj_models_are_merged_with_their_normals() {
     let m = ok(
@@ -262,6 +277,11 @@ fn broken_ascii_ply_files_name_the_element_and_line() {
         (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n"), "line 13: face 0: '1.5' is not a vertex index"),
         (format!("{h}0 0 0\n1 0 0\n0 1 0\n2 0 1\n"), "line 13: face 0 has 2 vertices"),
         (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1\n"), "the file ends in face 0 of 1: truncated, or the header's counts do not match the data"),
+        // A row of another length shifted every value after it (read as a flat quad's corner
+        // [1, 0, 1] and a face of the next row's values, without a word).
+        (format!("{h}0 0 0\n1 0\n1 0 0 1\n3 0 1 2\n"), "line 12: vertex 2 begins on the line where vertex 1 ended (each element begins a line): a row above holds more or fewer values than the header's properties"),
+        (format!("{h}0 0 0 5\n1 0 0\n0 1 0\n3 0 1 2\n"), "line 10: vertex 1 begins on the line where vertex 0 ended (each element begins a line): a row above holds more or fewer values than the header's properties"),
+        (format!("{h}0 0 0\n1 0 0\n0 1 0 3\n0 1 2\n"), "line 12: face 0 begins on the line where vertex 2 ended (each element begins a line): a row above holds more or fewer values than the header's properties"),
         (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n"), "line 14: '3' after the last element: the header's counts do not match the data"),
         (format!("{h}0 0 0\n1 0 0\n"), "the header declares 3 vertex, 1 face: at least 19 bytes of ascii data, but the file has 12 bytes after its header"),
         ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nend_header\n".into(), "cannot parse PLY: the vertex element has no 'z'"),

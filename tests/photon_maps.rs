@@ -473,7 +473,7 @@ fn scaled_scene(s: f64) -> String {
     toml::to_string(&table).unwrap()
 }
 
-/// A scene a micrometre across renders as in metres, with every estimator. Its extent was
+/// A scene a micrometre across renders as in metres, with every photon estimator. Its extent was
 /// taken as at least 1e-3, which set its ray offsets and footprint limits for a scene a
 /// millimetre across (relRMSE 0.0142 against the unscaled image at 1e-6, the caustic lost at
 /// 1e-12, without a word). Then two absolute lengths were found: the aimed global photons'
@@ -508,7 +508,7 @@ fn a_scene_renders_alike_in_any_unit() {
             .unwrap()
             .pixels
     };
-    for estimator in ["integrated", "jensen"] {
+    for estimator in ["integrated", "jensen", "pd", "coplanar", "multisampled"] {
         let metres = render(1.0, estimator);
         let mean = metres.iter().map(|p| p.element_sum()).sum::<f64>() / (3 * metres.len()) as f64;
         for s in [1e-12, 1e-9, 1e-6, 1e3] {
@@ -519,8 +519,9 @@ fn a_scene_renders_alike_in_any_unit() {
                 .map(|(a, b)| (*a - *b).length_squared())
                 .sum();
             let rel_rmse = (squares / (3 * metres.len()) as f64).sqrt() / mean;
-            // Measured: 1.4e-4 (integrated) and 9e-5 (jensen) at 1e-12, 1e-9 and 1e-6; before
-            // the fixes 0.26, 0.030 and 0.0027 (integrated), 0.42 at 1e-6 (jensen).
+            // Measured at 1e-12, 1e-9 and 1e-6: 1.4e-4 (integrated), 9e-5 (jensen), 2e-5
+            // (pd), 1.7e-4 (coplanar), 1.5e-4 (multisampled); before the fixes 0.26, 0.030
+            // and 0.0027 (integrated), 0.42 at 1e-6 (jensen), 0.28 at 1e-9 (multisampled).
             assert!(
                 rel_rmse < 0.001,
                 "{estimator} at scale {s}: relRMSE {rel_rmse:.6}"

@@ -1,5 +1,5 @@
-//! ASCII PLY data: whitespace-separated values read line by line (one element per line by
-//! convention, though values may wrap). Errors name the element and the line.
+//! ASCII PLY data: whitespace-separated values read line by line, each element beginning a
+//! line (its values may wrap onto the next). Errors name the element and the line.
 
 use super::header::{Header, Scalar};
 use super::{Layout, Sink};
@@ -60,6 +60,8 @@ pub(super) fn read(
         number: header.lines,
     };
     let mut values = Vec::new();
+    // The line the last element ended on, and which element that was.
+    let mut ended: Option<(u64, usize, u64)> = None;
     for (e, element) in header.elements.iter().enumerate() {
         for i in 0..element.count {
             let at = |line: u64, what: String| format!("line {line}: {} {i}: {what}", element.name);
@@ -76,6 +78,9 @@ pub(super) fn read(
             for (k, p) in element.properties.iter().enumerate() {
                 let Some(count) = p.list else {
                     let (token, l) = tokens.next()?.ok_or_else(ends)?;
+                    if k == 0 {
+                        begins_a_line(l, ended, header, &element.name, i)?;
+                    }
                     line = l;
                     let value = number(token)
                         .ok_or_else(|| at(l, format!("'{}' is not a number", show(token))))?;
@@ -83,6 +88,9 @@ pub(super) fn read(
                     continue;
                 };
                 let (token, l) = tokens.next()?.ok_or_else(ends)?;
+                if k == 0 {
+                    begins_a_line(l, ended, header, &element.name, i)?;
+                }
                 line = l;
                 let n = integer(token, count)
                     .ok_or_else(|| at(l, format!("'{}' is not a list length", show(token))))?;
@@ -111,6 +119,9 @@ pub(super) fn read(
             } else if e == layout.face {
                 sink.polygon(i).map_err(|e| format!("line {line}: {e}"))?;
             }
+            if !element.properties.is_empty() {
+                ended = Some((line, e, i));
+            }
         }
     }
     if let Some((token, line)) = tokens.next()? {
@@ -120,6 +131,29 @@ pub(super) fn read(
         ));
     }
     Ok(())
+}
+
+/// Each element begins a line (its values may wrap onto the next): an element that begins on
+/// the line where the one before ended is a row of another length than the header says, and
+/// reading on would shift every value after it into the wrong property.
+fn begins_a_line(
+    line: u64,
+    ended: Option<(u64, usize, u64)>,
+    header: &Header,
+    name: &str,
+    i: u64,
+) -> Result<(), String> {
+    match ended {
+        Some((l, e, j)) if l == line => {
+            let before = &header.elements[e].name;
+            Err(format!(
+                "line {line}: {name} {i} begins on the line where {before} {j} ended (each \
+                 element begins a line): a row above holds more or fewer values than the \
+                 header's properties"
+            ))
+        }
+        _ => Ok(()),
+    }
 }
 
 fn number(token: &[u8]) -> Option<f64> {
