@@ -466,3 +466,68 @@ fn a_scene_reports_the_bytes_of_its_mesh_files_as_it_reads_them() {
     );
     assert_eq!(seen.last(), Some(&(total, total)));
 }
+
+/// A concave polygon past the ear-clipping limit is refused, in OBJ and in PLY (faces before
+/// vertices too); it used to be fanned above 4,096 vertices, covering the missing quadrant of
+/// an L without a word. At the limit it is clipped and covers the L's area exactly.
+#[test]
+fn concave_polygons_past_the_ear_clipping_limit_are_refused() {
+    use photondiff::scene::mesh_file::triangulate::MAX_EAR_CLIPPED;
+    // An L of area 3 whose edges are cut into `n / 6` pieces each.
+    let l = |n: usize| -> Vec<[f64; 2]> {
+        let c = [
+            [2.0, 0.0],
+            [2.0, 1.0],
+            [1.0, 1.0],
+            [1.0, 2.0],
+            [0.0, 2.0],
+            [0.0, 0.0],
+        ];
+        let per = n / 6;
+        (0..6 * per)
+            .map(|i| {
+                let (a, b) = (c[i / per], c[(i / per + 1) % 6]);
+                let t = (i % per) as f64 / per as f64;
+                [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t]
+            })
+            .collect()
+    };
+    let obj = |p: &[[f64; 2]]| {
+        let mut text: String = p.iter().map(|[x, y]| format!("v {x} {y} 0\n")).collect();
+        text += "f";
+        (1..=p.len()).for_each(|i| text += &format!(" {i}"));
+        text + "\n"
+    };
+    let m = ok("l.obj", &obj(&l(MAX_EAR_CLIPPED)));
+    let area: f64 = m
+        .mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|k| m.mesh.positions[k as usize].map(f64::from));
+            ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])) / 2.0
+        })
+        .sum();
+    assert!((area - 3.0).abs() < 1e-6, "{area}");
+    let p = l(MAX_EAR_CLIPPED + 6);
+    let n = p.len();
+    let too_large = format!(
+        "a concave polygon of {n} vertices: ear clipping takes at most {MAX_EAR_CLIPPED} (its \
+         time grows as the square of the count); split or triangulate it first"
+    );
+    assert_eq!(
+        err("l.obj", obj(&p).as_bytes()),
+        format!("l.obj: line {}: {too_large}", n + 1)
+    );
+    let mut ply = format!(
+        "ply\nformat ascii 1.0\nelement face 1\nproperty list int int vertex_indices\n\
+         element vertex {n}\nproperty float x\nproperty float y\nproperty float z\nend_header\n{n}"
+    );
+    (0..n).for_each(|i| ply += &format!(" {i}"));
+    ply += "\n";
+    p.iter().for_each(|[x, y]| ply += &format!("{x} {y} 0\n"));
+    assert_eq!(
+        err("l.ply", ply.as_bytes()),
+        format!("l.ply: face 0 is {too_large}")
+    );
+}

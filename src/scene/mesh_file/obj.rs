@@ -195,6 +195,9 @@ impl Builder {
             &mut self.scratch,
             |t| triangles.push(t.map(|i| face[i].0)),
         );
+        if shape == Shape::TooLarge {
+            return Err(Shape::too_large(n));
+        }
         self.report.faces += 1;
         if n > 3 {
             self.report.polygons += 1;

@@ -236,17 +236,19 @@ impl Sink {
         self.report.polygons += 1;
         if (self.positions.len() as u64) < self.vertex_count {
             // The faces come first in this file: triangulate once the vertices are known.
-            self.deferred.push(n as u32);
+            // The face's number in two words, its size, its corners.
+            self.deferred
+                .extend_from_slice(&[face as u32, (face >> 32) as u32, n as u32]);
             self.deferred.extend_from_slice(&self.corners);
             return Ok(());
         }
         let corners = std::mem::take(&mut self.corners);
-        self.add_polygon(&corners);
+        let added = self.add_polygon(face, &corners);
         self.corners = corners;
-        Ok(())
+        added
     }
 
-    fn add_polygon(&mut self, corners: &[u32]) {
+    fn add_polygon(&mut self, face: u64, corners: &[u32]) -> Result<(), String> {
         let (positions, triangles) = (&self.positions, &mut self.triangles);
         let shape = triangulate(
             corners.len(),
@@ -254,15 +256,22 @@ impl Sink {
             &mut self.scratch,
             |t| triangles.push(t.map(|i| corners[i])),
         );
+        if shape == Shape::TooLarge {
+            return Err(format!(
+                "face {face} is {}",
+                Shape::too_large(corners.len())
+            ));
+        }
         self.report.concave_polygons += (shape == Shape::Concave) as u64;
+        Ok(())
     }
 
     fn finish(mut self) -> Result<(TriangleMesh, MeshReport), String> {
         let deferred = std::mem::take(&mut self.deferred);
         let mut rest = &deferred[..];
-        while let Some((&n, tail)) = rest.split_first() {
-            let (corners, tail) = tail.split_at(n as usize);
-            self.add_polygon(corners);
+        while let [low, high, n, tail @ ..] = rest {
+            let (corners, tail) = tail.split_at(*n as usize);
+            self.add_polygon(u64::from(*low) | u64::from(*high) << 32, corners)?;
             rest = tail;
         }
         self.triangles.shrink_to_fit();
