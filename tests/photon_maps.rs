@@ -529,3 +529,47 @@ fn a_scene_renders_alike_in_any_unit() {
         }
     }
 }
+
+/// A dim light lights the scene as a bright one scaled: the passes' fixed-point sum kept 2^-80
+/// steps, so a light of 1e-22 W/sr lit the canonical scene in three grey levels and one of
+/// 1e-24 left it black, without a word. Values under 2^-60 are now summed in floating point.
+#[test]
+fn a_dim_light_renders_as_a_bright_one_scaled() {
+    let dir = tempfile::tempdir().unwrap();
+    let render = |intensity: f64, estimator: &str| {
+        let mut table: toml::Table = scaled_scene(1.0).parse().unwrap();
+        table["lights"][0]["intensity"] = toml::Value::Array(vec![intensity.into(); 3]);
+        let scene = dir.path().join(format!("dim-{intensity:e}.toml"));
+        std::fs::write(&scene, toml::to_string(&table).unwrap()).unwrap();
+        let out = dir.path().join(format!("{estimator}-{intensity:e}.exr"));
+        let (scene, out) = (scene.to_str().unwrap(), out.to_str().unwrap());
+        common::run_ok([
+            "render",
+            scene,
+            "-q",
+            "--passes",
+            "1",
+            "--estimator",
+            estimator,
+            "-o",
+            out,
+        ]);
+        photondiff::render::film::Film::read_exr(Path::new(out))
+            .unwrap()
+            .pixels
+    };
+    for estimator in ["direct", "pd"] {
+        let bright = render(60.0, estimator);
+        let dim = render(6e-29, estimator);
+        let lit = bright.iter().filter(|p| p.x > 0.0).count();
+        assert!(lit > bright.len() / 2, "{estimator}: {lit} lit pixels");
+        for (d, b) in dim.iter().zip(&bright) {
+            // The EXR's f32 and the photons' f32 powers round the two apart by up to 4e-7.
+            let scaled = *d * 1e30;
+            assert!(
+                (scaled - *b).abs().max_element() <= 2e-6 * b.max_element(),
+                "{estimator}: {scaled} for {b}"
+            );
+        }
+    }
+}

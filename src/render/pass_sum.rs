@@ -6,10 +6,13 @@
 //! alone and merged with the rest must give the image of one run bit for bit. Floating-point
 //! addition is not associative, so radiance is summed in fixed point: an `i128` count of
 //! 2^-80, exact for every `f64` from 2^-28 (4e-9) up to the 2^32 (4e9) allowed per pass, and
-//! within 2^-81 below (2^15 passes of the largest values still fit). Integer addition is associative, so any grouping of the same passes gives
-//! the same sums. A one-pass image is therefore the pass's image exactly wherever it is 0 or at
-//! least 4e-9. A value outside that range (non-finite, or above 4e9) makes its pixel fall back
-//! to the plain floating-point sum, which is kept beside it.
+//! within 2^-81 below (2^15 passes of the largest values still fit). Integer addition is
+//! associative, so any grouping of the same passes gives the same sums. A one-pass image is
+//! therefore the pass's image exactly wherever it is 0 or at least 4e-9, and within 2^-20 of
+//! it down to 2^-60 (9e-19). A value outside that range (non-finite, above 4e9, or not 0 but
+//! below 9e-19) makes its pixel fall back to the plain floating-point sum, which is kept beside
+//! it. (Below 9e-19 the fixed point kept too few bits: a light of 1e-22 W/sr lit the canonical
+//! scene in three grey levels, at 1e-24 not at all.)
 
 use crate::render::film::Film;
 use crate::render::image::RenderedImage;
@@ -19,6 +22,8 @@ use glam::DVec3;
 const SCALE: f64 = (1u128 << 80) as f64;
 /// Largest magnitude a pass may add to the fixed-point sum (2^32).
 const LIMIT: f64 = (1u64 << 32) as f64;
+/// Smallest magnitude other than 0 a pass may add to the fixed-point sum (2^-60: 20 bits).
+const LEAST: f64 = 1.0 / (1u64 << 60) as f64;
 
 /// The accumulated passes of a progressive render.
 #[derive(Debug, Clone, PartialEq)]
@@ -66,7 +71,9 @@ impl PassSum {
         );
         for (i, &p) in pass.film.pixels.iter().enumerate() {
             let c = p.to_array();
-            if c.iter().all(|v| v.is_finite() && v.abs() <= LIMIT) {
+            if c.iter()
+                .all(|v| v.is_finite() && v.abs() <= LIMIT && (*v == 0.0 || v.abs() >= LEAST))
+            {
                 for (f, v) in self.fixed[i].iter_mut().zip(c) {
                     *f += (v * SCALE).round() as i128;
                 }
@@ -179,5 +186,15 @@ mod tests {
         assert_eq!(m.pixels[0].x, 1e13);
         assert!(m.pixels[1].x.is_nan());
         assert_eq!(m.pixels[2].x, 1.0);
+        // A dim scene's values: below 2^-60 in floating point, exactly; from there the fixed
+        // point within 2^-20 (1e-22 read 8.3e-25 steps: 0, 8.3e-25, 1.65e-24).
+        let mut s = PassSum::new(5, 1);
+        let tiny = [1e-22, 3.7e-30, 2f64.powi(-60), 1e-300, 0.0];
+        s.add(&pass(&tiny));
+        let m = s.mean();
+        for (p, v) in m.pixels.iter().zip(tiny) {
+            assert!((p.x - v).abs() <= v * 2f64.powi(-20), "{} for {v}", p.x);
+        }
+        assert_eq!((m.pixels[0].x, m.pixels[3].x), (1e-22, 1e-300));
     }
 }
