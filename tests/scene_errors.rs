@@ -1050,3 +1050,36 @@ fn command_line(command: &str, scene: &Path, out: &Path, args: &[&str]) -> (Opti
     let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
     (run.status.code(), stderr)
 }
+
+/// A sphere far from the origin loses the triangles near its poles to single precision: they
+/// are dropped and warned about, with the reason (it was an error naming a triangle the user
+/// never wrote); one whose every triangle collapses is an error saying why.
+#[test]
+fn a_sphere_far_from_the_origin_drops_the_triangles_single_precision_merges() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    let ball = |at: f64, radius: f64| {
+        format!(
+            "type = \"sphere\"\ncenter = [{at:?}, {at:?}, {at:?}]\nradius = {radius:?}\n\
+             material = \"white\""
+        )
+    };
+    std::fs::write(&path, with_shape(&ball(3000.0, 1.0))).unwrap();
+    let scene = load_scene(&path).unwrap();
+    let warnings = scene.warnings();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(
+        warnings[0].starts_with("shapes[0] (sphere): dropped 672 degenerate (zero-area) triangles")
+            && warnings[0].ends_with(
+                "(merged by single precision at the sphere's distance from the origin: fewer \
+                 `segments` keep them apart)"
+            ),
+        "{warnings:?}"
+    );
+    assert_eq!(scene.meshes[0].mesh.triangles.len(), 2 * 512 * 255 - 672);
+    assert_eq!(
+        error_of(&with_shape(&ball(1e12, 1.0)), &[]),
+        "shapes[0] (sphere): every triangle has zero area in single precision (radius 1 at \
+         [1000000000000.0, 1000000000000.0, 1000000000000.0]): bring it nearer the origin"
+    );
+}

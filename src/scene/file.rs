@@ -388,7 +388,19 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
                         "{field}.segments: must be in 3..=8192, got {segments}"
                     ));
                 }
-                let mesh = shapes::sphere(center, radius, segments);
+                let mut mesh = shapes::sphere(center, radius, segments);
+                // Far from the origin, single precision merges the vertices near the poles:
+                // their triangles are dropped and warned about, as a mesh file's are (they
+                // were an error naming a triangle the user never wrote).
+                crate::scene::mesh_file::repair::repair(&mut mesh, &mut report)
+                    .map_err(|e| format!("{field} (sphere): {e}"))?;
+                if mesh.triangles.is_empty() {
+                    return Err(format!(
+                        "{field} (sphere): every triangle has zero area in single precision \
+                         (radius {radius} at {:?}): bring it nearer the origin",
+                        center.to_array()
+                    ));
+                }
                 ("sphere".to_string(), mesh, material(&field, m)?)
             }
         };

@@ -234,7 +234,18 @@ impl Scene {
     pub fn warnings(&self) -> Vec<String> {
         self.meshes
             .iter()
-            .filter_map(|m| Some(format!("{}: {}", m.name, m.report.warning()?)))
+            .filter_map(|m| {
+                let why = match m.name.ends_with(" (sphere)") {
+                    // A tessellated sphere's only degenerate triangles are those that single
+                    // precision merged.
+                    true => {
+                        " (merged by single precision at the sphere's distance from the \
+                             origin: fewer `segments` keep them apart)"
+                    }
+                    false => "",
+                };
+                Some(format!("{}: {}{why}", m.name, m.report.warning()?))
+            })
             .collect()
     }
 
