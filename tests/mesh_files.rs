@@ -169,6 +169,27 @@ fn one_degenerate_triangle_is_dropped_and_counted() {
     );
 }
 
+/// A triangle wound against all three of its vertex normals is counted and warned about: the
+/// winding says which side is outside, so a mesh whose faces were reversed but whose normals
+/// were not rendered its glass inside out (an air bubble, no caustic) without a word. A
+/// triangle with one normal on its side is not (smoothed normals at a crease may lean over).
+#[test]
+fn triangles_wound_against_their_vertex_normals_are_counted() {
+    let m = ok(
+        "against.obj",
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nvn 0 0 -1\nvn 0.1 0 1\n\
+         f 1//1 2//1 3//1\nf 2//1 4//2 3//1\nf 3//1 2//1 1//1\n",
+    );
+    // Counter-clockwise seen from +z: the first wound against -z normals; the second has one
+    // +z normal; the third, wound clockwise (-z), agrees with its -z normals.
+    assert_eq!(m.report.against_normals, 1);
+    assert_eq!(
+        m.report.warning().unwrap(),
+        "1 triangle winds against all three of its vertex normals (the winding says which \
+         side is outside: glass there is inside out; reverse those faces' winding)"
+    );
+}
+
 #[test]
 fn zero_and_nan_normals_take_the_geometric_normal() {
     let m = ok(

@@ -118,6 +118,13 @@ fn describe(mesh: &TriangleMesh, report: &MeshReport) -> String {
         dropped(report),
         repaired(report),
     );
+    if report.against_normals > 0 {
+        s += &format!(
+            "  against    {} triangles wind against all three of their vertex normals (glass \
+             there is inside out)\n",
+            report.against_normals
+        );
+    }
     if report.skipped_lines_points > 0 {
         s += &format!(
             "  skipped    {} lines and points (not surfaces)\n",

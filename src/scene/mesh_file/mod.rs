@@ -34,6 +34,9 @@ pub struct MeshReport {
     pub repaired_normals: u64,
     /// Lines and points (OBJ `l`/`p`) skipped: they are not surfaces.
     pub skipped_lines_points: u64,
+    /// Triangles whose winding points away from all three of their vertex normals: the
+    /// winding decides which side is outside, so such a mesh's glass is inside out.
+    pub against_normals: u64,
 }
 
 impl MeshReport {
@@ -50,6 +53,19 @@ impl MeshReport {
                 s += &format!(" (the first: {a:?} {b:?} {c:?})");
             }
             parts.push(s);
+        }
+        if self.against_normals > 0 {
+            let (verb, whose) = match self.against_normals {
+                1 => ("winds", "its"),
+                _ => ("wind", "their"),
+            };
+            parts.push(format!(
+                "{} triangle{} {verb} against all three of {whose} vertex normals (the winding \
+                 says which side is outside: glass there is inside out; reverse those faces' \
+                 winding)",
+                self.against_normals,
+                plural(self.against_normals)
+            ));
         }
         if self.repaired_normals > 0 {
             parts.push(format!(
@@ -70,6 +86,7 @@ impl MeshReport {
         self.first_degenerate = self.first_degenerate.or(other.first_degenerate);
         self.repaired_normals += other.repaired_normals;
         self.skipped_lines_points += other.skipped_lines_points;
+        self.against_normals += other.against_normals;
     }
 }
 

@@ -68,8 +68,22 @@ pub fn repair(mesh: &mut TriangleMesh, report: &mut MeshReport) -> Result<(), St
     mesh.triangles.shrink_to_fit();
     if let Some(normals) = &mut mesh.normals {
         report.repaired_normals += repair_normals(positions, &mesh.triangles, normals);
+        report.against_normals += against_normals(positions, &mesh.triangles, normals);
     }
     Ok(())
+}
+
+/// The triangles whose geometric normal (their winding's) points away from all three of their
+/// vertex normals.
+fn against_normals(positions: &[[f32; 3]], triangles: &[[u32; 3]], normals: &[[f32; 3]]) -> u64 {
+    triangles
+        .iter()
+        .filter(|t| {
+            let [a, b, c] = t.map(|k| point(positions[k as usize]));
+            let n = (b - a).cross(c - a);
+            t.iter().all(|&k| n.dot(point(normals[k as usize])) < 0.0)
+        })
+        .count() as u64
 }
 
 fn bad_normal(n: &[f32; 3]) -> bool {
