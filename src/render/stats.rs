@@ -306,14 +306,14 @@ impl Stats {
                 String::new()
             };
             out += &format!(
-                "  {} map: {} photons stored{cap} from {} emissions ({} rays), power {:.4} W; \
+                "  {} map: {} photons stored{cap} from {} emissions ({} rays), power {} W; \
                  guarded footprints: {} clamped small, {} clamped large, {} anisotropy, {} fallback; \
                  {} mirrored at walls and edges\n",
                 capitalised(m.class.name()),
                 m.stored,
                 m.emitted,
                 m.rays,
-                m.power,
+                watts(m.power),
                 m.guards.clamped_min,
                 m.guards.clamped_max,
                 m.guards.clamped_anisotropy,
@@ -381,4 +381,29 @@ fn capitalised(s: &str) -> String {
     c.next()
         .map(|f| f.to_uppercase().chain(c).collect())
         .unwrap_or_default()
+}
+
+/// A power as the summary prints it: four decimals where that shows it, else four significant
+/// digits in exponent form (a scene in micrometres stored "0.0000 W", one in light years
+/// "1124623596912640000.0000 W").
+fn watts(power: f64) -> String {
+    if power == 0.0 || (1e-2..1e6).contains(&power.abs()) {
+        format!("{power:.4}")
+    } else {
+        format!("{power:.3e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn powers_of_any_size_keep_their_digits() {
+        let shown: Vec<String> = [0.0, 12.34567, 0.05, 3.2e-9, 1.1246e18]
+            .map(super::watts)
+            .into();
+        assert_eq!(
+            shown,
+            ["0.0000", "12.3457", "0.0500", "3.200e-9", "1.125e18"]
+        );
+    }
 }
