@@ -1083,3 +1083,37 @@ fn a_sphere_far_from_the_origin_drops_the_triangles_single_precision_merges() {
          [1000000000000.0, 1000000000000.0, 1000000000000.0]): bring it nearer the origin"
     );
 }
+
+/// `--seed` and `--threads` say what they take of a negative or fractional value, in every
+/// command that has them (clap said "invalid digit found in string").
+#[test]
+fn seeds_and_thread_counts_say_what_they_take() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml");
+    for command in ["render", "photons", "reference"] {
+        for (flag, name, value) in [
+            ("--seed", "S", "-1"),
+            ("--threads", "N", "-1"),
+            ("--seed", "S", "1.5"),
+            ("--seed", "S", "18446744073709551616"),
+        ] {
+            let run = Command::new(exe)
+                .args([command, scene, flag, value])
+                .output()
+                .unwrap();
+            let stderr = String::from_utf8_lossy(&run.stderr);
+            assert_eq!(
+                run.status.code(),
+                Some(2),
+                "{command} {flag} {value}: {stderr}"
+            );
+            assert!(
+                stderr.starts_with(&format!(
+                    "error: invalid value '{value}' for '{flag} <{name}>': expected a whole \
+                     number from 0 to 2^64 - 1, got {value}\n"
+                )),
+                "{command} {flag} {value}: {stderr}"
+            );
+        }
+    }
+}

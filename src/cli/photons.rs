@@ -26,10 +26,10 @@ pub struct PhotonsArgs {
     #[command(flatten)]
     photons: super::photon_args::PhotonArgs,
     /// Seed of the photons' random streams (as `render --seed`).
-    #[arg(long, value_name = "S", default_value_t = 0)]
+    #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::whole::<u64>)]
     seed: u64,
     /// Worker threads (0 = one per core; at most 1024); the maps are identical for any count.
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::whole::<usize>)]
     threads: usize,
     #[command(flatten)]
     bvh: super::bvh::BvhArgs,

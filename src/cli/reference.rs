@@ -39,12 +39,13 @@ pub struct ReferenceArgs {
           value_parser = clap::value_parser!(u32).range(1..=64))]
     direct_grids: Vec<u32>,
     /// Worker threads (0 = one per core; at most 1024).
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::whole::<usize>)]
     threads: usize,
     /// Seed of the light paths. References of one scene made with the same settings and
     /// different seeds are independent, and `--merge` averages them into one with their paths
     /// summed: a long reference made in parts, on several machines or over several days.
-    #[arg(long, value_name = "S", default_value_t = 0, conflicts_with = "merge")]
+    #[arg(long, value_name = "S", default_value_t = 0, conflicts_with = "merge",
+          value_parser = super::whole::<u64>)]
     seed: u64,
     /// Instead of tracing, write the mean of these references (each with its -a and -b halves
     /// beside it), which must have been made with the same settings and different seeds. A

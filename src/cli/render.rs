@@ -56,10 +56,10 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
     edge_grid: Option<u32>,
     /// Worker threads (0 = one per core; at most 1024).
-    #[arg(long, value_name = "N", default_value_t = 0)]
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::whole::<usize>)]
     threads: usize,
     /// Seed of every random stream; the same seed gives a bit-identical image on any thread count.
-    #[arg(long, value_name = "S", default_value_t = 0)]
+    #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::whole::<u64>)]
     seed: u64,
     /// Write the run's statistics (times per stage, rays by kind) as JSON to FILE.
     #[arg(long, value_name = "FILE")]
