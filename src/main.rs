@@ -98,6 +98,7 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("photondiff: error: {message}");
+            cli::remove_created_folders();
             ExitCode::FAILURE
         }
     }

@@ -1117,3 +1117,39 @@ fn seeds_and_thread_counts_say_what_they_take() {
         }
     }
 }
+
+/// A run that fails removes the folders it made for its outputs (a refused run left `o/a/` and
+/// `o/t/u/` behind), but not a folder that was there before or one that holds a file.
+#[test]
+fn a_failed_run_leaves_no_folders_it_made() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("kept")).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args(["render", "missing.toml", "-o"])
+        .arg(d.join("kept/a/x.exr"))
+        .arg("--trace")
+        .arg(d.join("t/u/trace.json"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let left: Vec<String> = walk(d);
+    assert_eq!(left, ["kept"], "{left:?}");
+}
+
+/// The folders and files under `dir`, relative to it, sorted.
+fn walk(dir: &Path) -> Vec<String> {
+    let mut found = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            found.push(p.strip_prefix(dir).unwrap().display().to_string());
+            if p.is_dir() {
+                stack.push(p);
+            }
+        }
+    }
+    found.sort();
+    found
+}

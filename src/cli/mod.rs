@@ -155,25 +155,54 @@ pub fn shown(x: f64) -> String {
     }
 }
 
-/// Creates the folder that will hold `path`, if it has one.
+/// The folders [`create_parent`] made in this run, in the order made (outermost first).
+static CREATED: std::sync::Mutex<Vec<PathBuf>> = std::sync::Mutex::new(Vec::new());
+
+/// Removes the folders this run made for its outputs that are still empty, innermost first:
+/// for a run that failed (a refused `reference -o o/new/x.exr` left `o/new/` behind).
+pub fn remove_created_folders() {
+    let created = std::mem::take(&mut *CREATED.lock().unwrap_or_else(|e| e.into_inner()));
+    for dir in created.iter().rev() {
+        // Only an empty folder goes: whatever was written into it stays.
+        let _ = std::fs::remove_dir(dir);
+    }
+}
+
+/// Creates the folder that will hold `path`, if it has one, remembering the folders it made
+/// ([`remove_created_folders`]).
 pub fn create_parent(path: &Path) -> Result<(), String> {
     match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => std::fs::create_dir_all(dir).map_err(|e| {
-            // The nearest part of the folder that exists, when it is a file ("File exists"
-            // said nothing of which).
-            let file = dir.ancestors().find(|a| a.exists()).filter(|a| !a.is_dir());
-            match file {
-                Some(f) if f == dir => format!("{}: is a file, not a folder", dir.display()),
-                Some(f) => format!(
-                    "{}: cannot create folder: {} is a file",
-                    dir.display(),
-                    f.display()
-                ),
-                None => format!("{}: cannot create folder: {e}", dir.display()),
-            }
-        }),
+        Some(dir) if !dir.as_os_str().is_empty() => {
+            let missing: Vec<PathBuf> = dir
+                .ancestors()
+                .take_while(|a| !a.as_os_str().is_empty() && !a.exists())
+                .map(Path::to_path_buf)
+                .collect();
+            make_folder(dir)?;
+            let mut created = CREATED.lock().unwrap_or_else(|e| e.into_inner());
+            created.extend(missing.into_iter().rev());
+            Ok(())
+        }
         _ => Ok(()),
     }
+}
+
+/// `create_dir_all`, with an error that names a file in the way.
+fn make_folder(dir: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(dir).map_err(|e| {
+        // The nearest part of the folder that exists, when it is a file ("File exists"
+        // said nothing of which).
+        let file = dir.ancestors().find(|a| a.exists()).filter(|a| !a.is_dir());
+        match file {
+            Some(f) if f == dir => format!("{}: is a file, not a folder", dir.display()),
+            Some(f) => format!(
+                "{}: cannot create folder: {} is a file",
+                dir.display(),
+                f.display()
+            ),
+            None => format!("{}: cannot create folder: {e}", dir.display()),
+        }
+    })
 }
 
 /// The path as the file system will resolve it, for comparing paths: absolute, and through
