@@ -230,6 +230,22 @@ fn ply_comments_obj_info_crlf_bom_mixed_faces_and_extra_properties() {
     assert_eq!((m.report.faces, m.report.polygons), (2, 1));
 }
 
+/// A vertex may carry w or a colour; a comment may end any line.
+#[test]
+fn obj_vertex_colours_and_comments_after_statements() {
+    let m = ok(
+        "c.obj",
+        "v 0 0 0 1 # w\nv 1 0 0 0.5 0.5 0.5\nv 0 1 0 0.5 0.5 0.5 1\nvn 0 0 1 # up\n\
+         f 1//1 2//1 3//1 # the only face\n# the end\n",
+    );
+    assert_eq!(
+        m.mesh.positions,
+        vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    );
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2]]);
+    assert_eq!(m.mesh.normals.unwrap(), vec![[0.0, 0.0, 1.0]; 3]);
+}
+
 #[test]
 fn broken_obj_files_name_the_line() {
     let cases: &[(&str, &str)] = &[
@@ -250,6 +266,16 @@ fn broken_obj_files_name_the_line() {
             "line 4: normal index 1 is out of range (0 normals so far)",
         ),
         ("v 0 0 0\nv 1 zero 0\n", "line 2: 'zero' is not a number"),
+        // After x y z: w, or a colour (and w), numbers all (junk was read past).
+        ("v 0 0 0 junk\n", "line 1: 'junk' is not a number"),
+        (
+            "v 0 0 0 1 1 1 1 1\n",
+            "line 1: 'v' takes at most 7 numbers (x y z, a colour r g b, w)",
+        ),
+        (
+            "vn 0 0 1 junk\n",
+            "line 1: 'vn' takes 3 numbers, then 'junk'",
+        ),
         ("v 0 0\n", "line 1: 'v' needs 3 numbers (x y z)"),
         (
             "v 0 0 0\nv nan 0 0\nv 0 1 0\nf 1 2 3\n",

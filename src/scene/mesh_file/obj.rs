@@ -135,6 +135,8 @@ fn resolve(token: &[u8], count: usize, what: &str, plural: &str) -> Result<u32, 
 
 impl Builder {
     fn statement(&mut self, line: &[u8]) -> Result<(), String> {
+        // A comment runs from '#' to the line's end, after a statement too (`f 1 2 3 # top`).
+        let line = line.split(|&b| b == b'#').next().unwrap_or(line);
         let mut tokens = line
             .split(|b| b.is_ascii_whitespace())
             .filter(|t| !t.is_empty());
@@ -142,9 +144,15 @@ impl Builder {
             return Ok(());
         };
         match keyword {
-            _ if keyword[0] == b'#' => {}
             b"v" => {
                 let p = three_numbers("v", "x y z", &mut tokens)?;
+                // What may follow: w, or a colour r g b (and w), numbers all.
+                for (k, token) in tokens.enumerate() {
+                    number(token)?;
+                    if k == 4 {
+                        return Err("'v' takes at most 7 numbers (x y z, a colour r g b, w)".into());
+                    }
+                }
                 if let Some(why) = bad_position(&p) {
                     return Err(format!("vertex {} {why}", self.positions.len() + 1));
                 }
@@ -155,9 +163,13 @@ impl Builder {
                 self.first_normal.push(UNUSED);
             }
             // Zero or NaN normals are repaired later, as modelling tools write them.
-            b"vn" => self
-                .normals
-                .push(three_numbers("vn", "x y z", &mut tokens)?),
+            b"vn" => {
+                let n = three_numbers("vn", "x y z", &mut tokens)?;
+                if let Some(token) = tokens.next() {
+                    return Err(format!("'vn' takes 3 numbers, then '{}'", text(token)));
+                }
+                self.normals.push(n);
+            }
             b"f" | b"fo" => self.face(tokens)?,
             b"l" | b"p" => self.report.skipped_lines_points += 1,
             _ if IGNORED.contains(&keyword) => {}
