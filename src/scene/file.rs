@@ -348,6 +348,7 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
     };
 
     let mut meshes = Vec::new();
+    check_sphere_memory(&file.shapes, crate::util::memory::total_bytes())?;
     for (i, shape) in file.shapes.iter().enumerate() {
         let field = format!("shapes[{i}]");
         let mut report = MeshReport::default();
@@ -538,4 +539,58 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
         lights,
         meshes,
     })
+}
+
+/// Refuses, before tessellating, spheres whose mesh buffers alone would not fit in `total`
+/// bytes of memory: four spheres of 8,192 segments asked for 6.4 GB, and where that could not
+/// be had the process aborted ("memory allocation failed") rather than saying why.
+fn check_sphere_memory(shapes: &[ShapeDesc], total: Option<u64>) -> Result<(), String> {
+    let Some(total) = total else { return Ok(()) };
+    let (mut bytes, mut largest) = (0u64, 0u32);
+    for shape in shapes {
+        if let ShapeDesc::Sphere(SphereShape { segments, .. }) = shape {
+            let s = segments
+                .unwrap_or(shapes::DEFAULT_SPHERE_SEGMENTS)
+                .clamp(3, 8192);
+            bytes += shapes::sphere_bytes(s);
+            largest = largest.max(s);
+        }
+    }
+    if bytes > total {
+        return Err(format!(
+            "the spheres' triangles need {:.1} GB of mesh buffers (segments up to {largest}: \
+             {} triangles a sphere), more than this machine's {:.1} GB: use fewer segments",
+            bytes as f64 / 1e9,
+            shapes::sphere_triangles(largest),
+            total as f64 / 1e9
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spheres_beyond_memory_are_refused_before_they_are_made() {
+        let ball = |segments| {
+            ShapeDesc::Sphere(SphereShape {
+                center: [0.0; 3],
+                radius: 1.0,
+                material: "glass".into(),
+                segments,
+            })
+        };
+        // Four spheres of 8,192 segments: 6.4 GB of buffers.
+        let four: Vec<ShapeDesc> = (0..4).map(|_| ball(Some(8192))).collect();
+        assert_eq!(
+            check_sphere_memory(&four, Some(4_000_000_000)).unwrap_err(),
+            "the spheres' triangles need 6.4 GB of mesh buffers (segments up to 8192: 67092480 \
+             triangles a sphere), more than this machine's 4.0 GB: use fewer segments"
+        );
+        assert!(check_sphere_memory(&four, Some(24_000_000_000)).is_ok());
+        assert!(check_sphere_memory(&four, None).is_ok());
+        assert!(check_sphere_memory(&[ball(None)], Some(100_000_000)).is_ok());
+    }
 }

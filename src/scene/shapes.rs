@@ -29,6 +29,20 @@ pub fn quad(corner: DVec3, edge_u: DVec3, edge_v: DVec3) -> TriangleMesh {
     }
 }
 
+/// The triangles of a sphere of `segments` (at least 3): `segments` around each of
+/// `segments / 2` rings, two per quadrilateral but one at each pole.
+pub fn sphere_triangles(segments: u32) -> u64 {
+    let (s, rings) = (segments.max(3) as u64, (segments.max(3) / 2).max(2) as u64);
+    2 * s * (rings - 1)
+}
+
+/// The bytes of a sphere's mesh buffers: 12 a position, 12 a normal, 12 a triangle.
+pub fn sphere_bytes(segments: u32) -> u64 {
+    let (s, rings) = (segments.max(3) as u64, (segments.max(3) / 2).max(2) as u64);
+    let vertices = 2 + s * (rings - 1);
+    24 * vertices + 12 * sphere_triangles(segments)
+}
+
 /// A sphere as a UV mesh with exact per-vertex normals (for interpolated shading normals),
 /// `segments` around (>= 3) and `segments / 2` rings from pole to pole, with triangle fans at
 /// the poles so that no triangle is degenerate. Triangles face outwards.
@@ -87,6 +101,18 @@ mod tests {
             let [a, b, c] = tri.map(|k| DVec3::from(mesh.positions[k as usize].map(f64::from)));
             let n = (b - a).cross(c - a);
             assert!(n.dot((a + b + c) / 3.0 - center) > 0.0, "{tri:?}");
+        }
+    }
+
+    #[test]
+    fn sphere_counts_are_those_of_the_mesh() {
+        for segments in [3, 4, 7, 16, 513] {
+            let mesh = sphere(DVec3::ZERO, 1.0, segments);
+            assert_eq!(mesh.triangles.len() as u64, sphere_triangles(segments));
+            assert_eq!(
+                sphere_bytes(segments),
+                24 * mesh.positions.len() as u64 + 12 * mesh.triangles.len() as u64
+            );
         }
     }
 
