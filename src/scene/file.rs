@@ -534,10 +534,17 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
         };
         lights.push(light);
     }
+    let unplaced_meshes = file
+        .meshes
+        .keys()
+        .filter(|name| !file.instances.iter().any(|i| &i.mesh == *name))
+        .cloned()
+        .collect();
     Ok(Scene {
         camera,
         lights,
         meshes,
+        unplaced_meshes,
     })
 }
 

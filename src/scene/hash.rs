@@ -17,8 +17,8 @@ pub fn fnv1a(mut hash: u64, bytes: &[u8]) -> u64 {
     hash
 }
 
-/// The mesh files a scene file names (`[[shapes]]` of type "mesh", then the instanced
-/// `[meshes.NAME]` by name), resolved against its folder, in the file's order, each with the
+/// The mesh files a scene file names (`[[shapes]]` of type "mesh", then the `[meshes.NAME]`
+/// an instance places, by name), resolved against its folder, in the file's order, each with the
 /// field that names it (`shapes[2].file`, `meshes.NAME.file`) for messages.
 fn mesh_files(text: &str, base: &Path) -> Vec<(String, PathBuf)> {
     let Ok(value) = text.parse::<toml::Table>() else {
@@ -32,11 +32,20 @@ fn mesh_files(text: &str, base: &Path) -> Vec<(String, PathBuf)> {
         .enumerate()
         .filter(|(_, s)| s.get("type").and_then(|t| t.as_str()) == Some("mesh"))
         .filter_map(|(i, s)| Some((format!("shapes[{i}].file"), s.get("file")?.as_str()?)));
+    // A mesh no instance places is not read (the loader does not read it either).
+    let placed: Vec<&str> = value
+        .get("instances")
+        .and_then(|i| i.as_array())
+        .into_iter()
+        .flatten()
+        .filter_map(|i| i.get("mesh")?.as_str())
+        .collect();
     let named = value
         .get("meshes")
         .and_then(|m| m.as_table())
         .into_iter()
         .flatten()
+        .filter(|(name, _)| placed.contains(&name.as_str()))
         .filter_map(|(name, m)| Some((format!("meshes.{name}.file"), m.get("file")?.as_str()?)));
     shapes
         .chain(named)
@@ -60,8 +69,8 @@ pub fn scene_hash_of(path: &Path, scene: &[u8]) -> Result<u64, String> {
     let mut hash = fnv1a(FNV_OFFSET, &(scene.len() as u64).to_le_bytes());
     hash = fnv1a(hash, scene);
     for (field, mesh) in mesh_files(&String::from_utf8_lossy(scene), base) {
-        // Named with the scene and the field: a `[meshes.NAME]` no instance places is read
-        // here only, and its bare path said nothing of where it came from.
+        // Named with the scene and the field: its bare path said nothing of where it came
+        // from.
         let bytes = read(&mesh).map_err(|e| format!("{}: {field}: {e}", path.display()))?;
         hash = fnv1a(hash, &(bytes.len() as u64).to_le_bytes());
         hash = fnv1a(hash, &bytes);
@@ -105,9 +114,10 @@ mod tests {
             m.display()
         );
         assert!(err.starts_with(&expected), "{err}");
-        // A mesh no instance places is read for the hash alone: its error names it as well.
-        let scene = "[camera]\n[[shapes]]\ntype = \"quad\"\n[meshes.a]\nfile = \"m.obj\"\n";
-        std::fs::write(&a, scene).unwrap();
+        // A placed mesh's error names its field; one no instance places is not read (the
+        // loader does not read it either: a missing file was an error, a broken one not).
+        let placed = "[camera]\n[meshes.a]\nfile = \"m.obj\"\n[[instances]]\nmesh = \"a\"\n";
+        std::fs::write(&a, placed).unwrap();
         let err = scene_hash(&a).unwrap_err();
         let expected = format!(
             "{}: meshes.a.file: {}: cannot read: ",
@@ -115,5 +125,8 @@ mod tests {
             m.display()
         );
         assert!(err.starts_with(&expected), "{err}");
+        let unplaced = "[camera]\n[[shapes]]\ntype = \"quad\"\n[meshes.a]\nfile = \"m.obj\"\n";
+        std::fs::write(&a, unplaced).unwrap();
+        assert!(scene_hash(&a).is_ok());
     }
 }

@@ -166,6 +166,8 @@ pub struct Scene {
     pub lights: Vec<Light>,
     /// The meshes; mesh `i` becomes Embree geometry `i`.
     pub meshes: Vec<SceneMesh>,
+    /// The `[meshes.NAME]` no instance places, by name (their files are not read).
+    pub unplaced_meshes: Vec<String>,
 }
 
 impl Scene {

@@ -46,6 +46,11 @@ pub fn warnings(scene: &Scene) -> Vec<String> {
     if surfaces > 0 {
         out.extend(view_warning(scene));
     }
+    for name in &scene.unplaced_meshes {
+        out.push(format!(
+            "meshes.{name} is placed by no [[instances]]: its file is not read"
+        ));
+    }
     let extent = scene.extent();
     if extent > MAX_EXTENT {
         out.push(format!(
@@ -249,6 +254,16 @@ mod tests {
                 "shapes[1] (sphere) is 3.464e0 across, and rays leave surfaces 2.500e0 off them"
             ),
             "{w:?}"
+        );
+    }
+
+    #[test]
+    fn a_mesh_no_instance_places_is_named_and_not_read() {
+        // Its file does not exist: not read, so not an error (a broken one was not either).
+        let ghost = "[meshes.ghost]\nfile = \"no-such-file.ply\"\n";
+        assert_eq!(
+            warnings_of(&format!("{CAMERA}{LIGHT}{}{BALL}{ghost}", floor(6.0))),
+            ["meshes.ghost is placed by no [[instances]]: its file is not read"]
         );
     }
 
