@@ -473,6 +473,30 @@ fn scaled_scene(s: f64) -> String {
     toml::to_string(&table).unwrap()
 }
 
+/// The pixels of one pass of `estimator` on the scene `text`, written into `dir` as `name`,
+/// with `extra` options.
+fn one_pass(dir: &Path, name: &str, text: &str, estimator: &str, extra: &[&str]) -> Vec<DVec3> {
+    let scene = dir.join(format!("{name}.toml"));
+    std::fs::write(&scene, text).unwrap();
+    let out = dir.join(format!("{name}.exr"));
+    let (scene_arg, out_arg) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    let mut args = vec![
+        "render",
+        scene_arg,
+        "-q",
+        "--passes",
+        "1",
+        "--estimator",
+        estimator,
+    ];
+    args.extend(["-o", out_arg]);
+    args.extend(extra);
+    common::run_ok(args);
+    photondiff::render::film::Film::read_exr(&out)
+        .unwrap()
+        .pixels
+}
+
 /// A scene a micrometre across renders as in metres, with every photon estimator. Its extent was
 /// taken as at least 1e-3, which set its ray offsets and footprint limits for a scene a
 /// millimetre across (relRMSE 0.0142 against the unscaled image at 1e-6, the caustic lost at
@@ -483,30 +507,16 @@ fn scaled_scene(s: f64) -> String {
 fn a_scene_renders_alike_in_any_unit() {
     let dir = tempfile::tempdir().unwrap();
     let render = |s: f64, estimator: &str| {
-        let scene = dir.path().join(format!("scene-{s:e}.toml"));
-        std::fs::write(&scene, scaled_scene(s)).unwrap();
-        let out = dir.path().join(format!("{estimator}-{s:e}.exr"));
-        let (scene, out) = (scene.to_str().unwrap(), out.to_str().unwrap());
-        common::run_ok([
-            "render",
-            scene,
-            "-q",
+        let photons = [
             "--threads",
             "1",
-            "--passes",
-            "1",
-            "--estimator",
-            estimator,
-            "-o",
-            out,
             "--photons",
             "20000",
             "--caustic-photons",
             "20000",
-        ]);
-        photondiff::render::film::Film::read_exr(Path::new(out))
-            .unwrap()
-            .pixels
+        ];
+        let name = format!("{estimator}-{s:e}");
+        one_pass(dir.path(), &name, &scaled_scene(s), estimator, &photons)
     };
     for estimator in ["integrated", "jensen", "pd", "coplanar", "multisampled"] {
         let metres = render(1.0, estimator);
@@ -539,24 +549,9 @@ fn a_dim_light_renders_as_a_bright_one_scaled() {
     let render = |intensity: f64, estimator: &str| {
         let mut table: toml::Table = scaled_scene(1.0).parse().unwrap();
         table["lights"][0]["intensity"] = toml::Value::Array(vec![intensity.into(); 3]);
-        let scene = dir.path().join(format!("dim-{intensity:e}.toml"));
-        std::fs::write(&scene, toml::to_string(&table).unwrap()).unwrap();
-        let out = dir.path().join(format!("{estimator}-{intensity:e}.exr"));
-        let (scene, out) = (scene.to_str().unwrap(), out.to_str().unwrap());
-        common::run_ok([
-            "render",
-            scene,
-            "-q",
-            "--passes",
-            "1",
-            "--estimator",
-            estimator,
-            "-o",
-            out,
-        ]);
-        photondiff::render::film::Film::read_exr(Path::new(out))
-            .unwrap()
-            .pixels
+        let text = toml::to_string(&table).unwrap();
+        let name = format!("{estimator}-{intensity:e}");
+        one_pass(dir.path(), &name, &text, estimator, &[])
     };
     for estimator in ["direct", "pd"] {
         let bright = render(60.0, estimator);
