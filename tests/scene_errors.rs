@@ -1153,3 +1153,50 @@ fn walk(dir: &Path) -> Vec<String> {
     found.sort();
     found
 }
+
+/// Light tracing reaches a camera inside glass by no path: `render --estimator lighttrace`
+/// and `reference` say so (their images were black without a word); a camera outside, even
+/// one looking at the glass, is not warned about.
+#[test]
+fn a_camera_inside_glass_is_warned_about_by_light_tracing() {
+    let dir = tempfile::tempdir().unwrap();
+    let canonical = include_str!("../scenes/caustic-sphere.toml")
+        .replace("width = 640", "width = 32")
+        .replace("height = 480", "height = 24");
+    for (eye, warned) in [("[0.0, 1.0, 0.2]", true), ("[0.0, 1.0, 3.0]", false)] {
+        let scene = dir.path().join("scene.toml");
+        let text = canonical.replace("eye = [2.5, 4.5, 7.0]", &format!("eye = {eye}"));
+        std::fs::write(&scene, text).unwrap();
+        let out = dir.path().join("x.exr");
+        let (scene, out) = (scene.to_str().unwrap(), out.to_str().unwrap());
+        let light = ["--estimator", "lighttrace", "--light-paths", "65536"];
+        let mut render = vec!["render", scene, "-q", "-o", out];
+        render.extend(light);
+        let reference = [
+            "reference",
+            scene,
+            "-q",
+            "-o",
+            out,
+            "--direct-grids",
+            "1,2",
+            "--light-paths",
+            "65536",
+            "--caustic-paths",
+            "65536",
+        ];
+        for args in [&render[..], &reference[..]] {
+            let stderr = String::from_utf8(common::run_ok(args).stderr).unwrap();
+            let warning = format!(
+                "photondiff: warning: {scene}: the camera is inside shapes[1] (sphere), which \
+                 is glass: light tracing reaches the camera through open space only, so what it \
+                 traces will be black\n"
+            );
+            assert_eq!(
+                stderr.contains(&warning),
+                warned,
+                "{eye} {args:?}: {stderr}"
+            );
+        }
+    }
+}

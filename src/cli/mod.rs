@@ -137,6 +137,24 @@ pub fn warn_photon_memory(scene: &Path, photons: usize) {
     }
 }
 
+/// Warns when the camera is inside glass, where light tracing (`render --estimator
+/// lighttrace`, `reference`) reaches it by no path (`photondiff::reference::light_tracer::
+/// camera_in_glass`).
+pub fn warn_camera_in_glass(
+    path: &Path,
+    scene: &photondiff::scene::Scene,
+    embree: &photondiff::embree::Scene,
+) {
+    if let Some(glass) = photondiff::reference::light_tracer::camera_in_glass(scene, embree) {
+        eprintln!(
+            "photondiff: warning: {}: the camera is inside {glass}, which is glass: light \
+             tracing reaches the camera through open space only, so what it traces will be \
+             black",
+            path.display()
+        );
+    }
+}
+
 /// Prints what in the scene at `path` will make its image black or wrong without an error
 /// (`photondiff::scene::warnings`), one warning a line.
 pub fn warn_about_scene(path: &Path, scene: &photondiff::scene::Scene) {

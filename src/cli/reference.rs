@@ -375,6 +375,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         direct_grids: grids,
         seed: args.seed,
     };
+    super::warn_camera_in_glass(&args.scene, &scene, &embree);
     let start = std::time::Instant::now();
     let reference = pool.install(|| {
         let mut log = |m: &str| {

@@ -371,3 +371,30 @@ impl<'a> LightTracer<'a> {
         jobs.into_iter().map(|(_, set, c)| (set, c)).collect()
     }
 }
+
+/// The name of the glass mesh the camera is inside, if any: light tracing reaches the camera only along
+/// straight segments through open space, so such a camera sees nothing of it (its image is
+/// black without a word). Along each axis and the view direction, the first glass surface
+/// met from its inside (the geometric normal, which the winding sets, along the ray) says
+/// so; a direction whose first hit is not glass says nothing.
+pub fn camera_in_glass(scene: &Scene, embree: &embree::Scene) -> Option<String> {
+    let c = &scene.camera;
+    let epsilon = scene.ray_epsilon();
+    let directions = [
+        c.forward,
+        DVec3::X,
+        DVec3::NEG_X,
+        DVec3::Y,
+        DVec3::NEG_Y,
+        DVec3::Z,
+        DVec3::NEG_Z,
+    ];
+    directions.iter().find_map(|&d| {
+        let hit = embree.intersect(&Ray::new(c.eye, d))?;
+        let mesh = &scene.meshes[hit.geom_id as usize];
+        let inside = matches!(mesh.material, crate::scene::Material::Glass { .. })
+            && hit.geometric_normal.dot(d) > 0.0
+            && hit.t > epsilon;
+        inside.then(|| mesh.name.clone())
+    })
+}
