@@ -326,9 +326,9 @@ fn broken_ascii_ply_files_name_the_element_and_line() {
         (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1\n"), "the file ends in face 0 of 1: truncated, or the header's counts do not match the data"),
         // A row of another length shifted every value after it (read as a flat quad's corner
         // [1, 0, 1] and a face of the next row's values, without a word).
-        (format!("{h}0 0 0\n1 0\n1 0 0 1\n3 0 1 2\n"), "line 12: vertex 2 begins on the line where vertex 1 ended (each element begins a line): a row above holds more or fewer values than the header's properties"),
-        (format!("{h}0 0 0 5\n1 0 0\n0 1 0\n3 0 1 2\n"), "line 10: vertex 1 begins on the line where vertex 0 ended (each element begins a line): a row above holds more or fewer values than the header's properties"),
-        (format!("{h}0 0 0\n1 0 0\n0 1 0 3\n0 1 2\n"), "line 12: face 0 begins on the line where vertex 2 ended (each element begins a line): a row above holds more or fewer values than the header's properties"),
+        (format!("{h}0 0 0\n1 0\n1 0 0 1\n3 0 1 2\n"), "line 12: vertex 2 begins on the line where vertex 1 ended: each element must begin a line (a row of another length than the header says would shift every value after it)"),
+        (format!("{h}0 0 0 5\n1 0 0\n0 1 0\n3 0 1 2\n"), "line 10: vertex 1 begins on the line where vertex 0 ended: each element must begin a line (a row of another length than the header says would shift every value after it)"),
+        (format!("{h}0 0 0\n1 0 0\n0 1 0 3\n0 1 2\n"), "line 12: face 0 begins on the line where vertex 2 ended: each element must begin a line (a row of another length than the header says would shift every value after it)"),
         (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n"), "line 14: '3' after the last element: the header's counts do not match the data"),
         (format!("{h}0 0 0\n1 0 0\n"), "the header declares 3 vertex, 1 face: at least 19 bytes of ascii data, but the file has 12 bytes after its header"),
         ("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nend_header\n".into(), "cannot parse PLY: the vertex element has no 'z'"),

@@ -147,9 +147,9 @@ fn begins_a_line(
         Some((l, e, j)) if l == line => {
             let before = &header.elements[e].name;
             Err(format!(
-                "line {line}: {name} {i} begins on the line where {before} {j} ended (each \
-                 element begins a line): a row above holds more or fewer values than the \
-                 header's properties"
+                "line {line}: {name} {i} begins on the line where {before} {j} ended: each \
+                 element must begin a line (a row of another length than the header says would \
+                 shift every value after it)"
             ))
         }
         _ => Ok(()),
