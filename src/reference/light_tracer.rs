@@ -372,11 +372,11 @@ impl<'a> LightTracer<'a> {
     }
 }
 
-/// The name of the glass mesh the camera is inside, if any: light tracing reaches the camera only along
-/// straight segments through open space, so such a camera sees nothing of it (its image is
-/// black without a word). Along each axis and the view direction, the first glass surface
-/// met from its inside (the geometric normal, which the winding sets, along the ray) says
-/// so; a direction whose first hit is not glass says nothing.
+/// The name of the glass mesh the camera is inside, if any: light tracing reaches the camera
+/// only along straight segments through open space, so such a camera sees nothing of it (its
+/// image is black without a word). Along each axis and the view direction, the first glass
+/// surface met from its inside (the geometric normal, which the winding sets, along the ray)
+/// says so; a direction whose first hit is not glass says nothing.
 pub fn camera_in_glass(scene: &Scene, embree: &embree::Scene) -> Option<String> {
     let c = &scene.camera;
     let epsilon = scene.ray_epsilon();
