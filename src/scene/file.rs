@@ -45,6 +45,33 @@ struct SceneFile {
     instances: Vec<InstanceDesc>,
 }
 
+impl SceneFile {
+    /// The names of the meshes some instance places.
+    fn placed(&self) -> std::collections::BTreeSet<&str> {
+        self.instances.iter().map(|i| i.mesh.as_str()).collect()
+    }
+
+    /// The mesh files the scene uses, as the hash reads them
+    /// (`crate::scene::hash::scene_hash_with`): the mesh shapes' in order, then the placed
+    /// `[meshes.NAME]` by name, each with its field, resolved against `base`.
+    fn mesh_files(&self, base: &Path) -> Vec<(String, PathBuf)> {
+        let shapes = self.shapes.iter().enumerate().filter_map(|(i, s)| match s {
+            ShapeDesc::Mesh(MeshShape { file, .. }) => Some((format!("shapes[{i}].file"), file)),
+            _ => None,
+        });
+        let used = self.placed();
+        let placed = self
+            .meshes
+            .iter()
+            .filter(|(name, _)| used.contains(name.as_str()))
+            .map(|(name, m)| (format!("meshes.{name}.file"), &m.file));
+        shapes
+            .chain(placed)
+            .map(|(field, file)| (field, base.join(file)))
+            .collect()
+    }
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CameraDesc {
@@ -92,12 +119,12 @@ pub fn load_scene_hashed(
     let text =
         crate::util::input::read_to_string(path).map_err(|e| err(format!("cannot read: {e}")))?;
     let base = path.parent().unwrap_or(Path::new("."));
-    let scene = parse(&text)
-        .and_then(|file| build(file, base, &progress))
-        .map_err(err)?;
+    let file = parse(&text).map_err(err)?;
+    let meshes = file.mesh_files(path.parent().unwrap_or(Path::new("")));
+    let scene = build(file, base, &progress).map_err(err)?;
     // Its errors name the scene first, as `err` does.
     let prefix = format!("{}: ", path.display());
-    let hash = crate::scene::hash::scene_hash_of(path, text.as_bytes())
+    let hash = crate::scene::hash::scene_hash_with(path, text.as_bytes(), meshes)
         .map_err(|e| err(e.strip_prefix(&prefix).unwrap_or(&e).to_string()))?;
     Ok((scene, hash))
 }
@@ -534,10 +561,11 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
         };
         lights.push(light);
     }
+    let placed = file.placed();
     let unplaced_meshes = file
         .meshes
         .keys()
-        .filter(|name| !file.instances.iter().any(|i| &i.mesh == *name))
+        .filter(|name| !placed.contains(name.as_str()))
         .cloned()
         .collect();
     Ok(Scene {
@@ -578,6 +606,32 @@ fn check_sphere_memory(shapes: &[ShapeDesc], total: Option<u64>) -> Result<(), S
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The loader hashes the mesh files of its own parse; the hash must be the one of the
+    /// scene file alone (`scene_hash`, which `merge` and the photon-map checks compute).
+    #[test]
+    fn the_loader_hashes_as_the_scene_file_alone_does() {
+        let dir = tempfile::tempdir().unwrap();
+        let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+        for name in ["a.obj", "b.obj", "c.obj"] {
+            std::fs::write(dir.path().join(name), format!("# {name}\n{tri}")).unwrap();
+        }
+        let scene = "[camera]\neye = [0.0, 0.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\n\
+            up = [0.0, 1.0, 0.0]\nfov_y = 40.0\nwidth = 8\nheight = 8\n\
+            [materials.white]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
+            [[shapes]]\ntype = \"mesh\"\nfile = \"a.obj\"\nmaterial = \"white\"\n\
+            [meshes.z]\nfile = \"b.obj\"\n[meshes.unused]\nfile = \"missing.obj\"\n\
+            [meshes.y]\nfile = \"c.obj\"\n\
+            [[instances]]\nmesh = \"z\"\nmaterial = \"white\"\n\
+            [[instances]]\nmesh = \"y\"\nmaterial = \"white\"\n";
+        let path = dir.path().join("s.toml");
+        std::fs::write(&path, scene).unwrap();
+        let (_, hash) = load_scene_hashed(&path, |_, _| {}).unwrap();
+        assert_eq!(hash, crate::scene::hash::scene_hash(&path).unwrap());
+        // And it reads the files: another mesh's bytes, another hash.
+        std::fs::write(dir.path().join("c.obj"), tri).unwrap();
+        assert_ne!(load_scene_hashed(&path, |_, _| {}).unwrap().1, hash);
+    }
 
     #[test]
     fn spheres_beyond_memory_are_refused_before_they_are_made() {
