@@ -425,11 +425,7 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
     // A named pipe (a shell's `<(cat a.pdm)`) is read once, whole, after the scene: its header
     // is not read ahead, which would take it from the render.
     let fifo = d.join("maps.fifo");
-    assert!(Command::new("mkfifo")
-        .arg(&fifo)
-        .status()
-        .unwrap()
-        .success());
+    mkfifo(&fifo);
     let writer = {
         let fifo = fifo.clone();
         std::thread::spawn(move || std::fs::write(fifo, bytes).unwrap())
@@ -451,11 +447,7 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
     // (a second read to hash it waited for a writer for ever, or hashed nothing).
     std::fs::remove_file(&out).unwrap();
     let scene_fifo = d.join("scene.fifo");
-    assert!(Command::new("mkfifo")
-        .arg(&scene_fifo)
-        .status()
-        .unwrap()
-        .success());
+    mkfifo(&scene_fifo);
     let text = std::fs::read(&scene_a).unwrap();
     let writer = {
         let fifo = scene_fifo.clone();
@@ -482,6 +474,11 @@ fn bad_photon_map_files_are_one_line_errors_without_output() {
     assert!(status.success(), "{stderr}");
     writer.join().unwrap();
     assert!(out.exists());
+}
+
+/// Makes a named pipe at `path`.
+fn mkfifo(path: &Path) {
+    assert!(Command::new("mkfifo").arg(path).status().unwrap().success());
 }
 
 /// Renders `scene` into `out` with the small photon counts and `extra`.
