@@ -349,21 +349,14 @@ fn transmitted_fraction(origin: DVec3, d: DVec3, inside: bool, depth: u32) -> f6
     }
 }
 
-#[test]
-fn caustic_map_power_matches_an_independent_integration() {
-    let scene = canonical();
-    let device = Device::new().unwrap();
-    let embree = scene.build_embree(&device).unwrap();
-    let map = caustic_map(&scene, &embree, 2, 20_000);
-    let stored = map.total_power().x;
-
-    // Midpoint rule over the cone of directions to the sphere, uniform in solid angle.
-    let light = DVec3::new(-4.0, 4.0, -1.0);
+/// The power the light at `light`, of intensity `intensity(d)` along `d`, sends to the floor
+/// through the canonical scene's sphere: a midpoint rule over the cone of directions to the
+/// sphere, uniform in solid angle (`n` x `n` cells).
+fn caustic_power(light: DVec3, intensity: impl Fn(DVec3) -> f64, n: usize) -> f64 {
     let to = DVec3::new(0.0, 1.0, 0.0) - light;
     let cos_max = (1.0 - 1.0 / to.length_squared()).sqrt();
     let axis = to.normalize();
     let (t1, t2) = tangent_frame(axis);
-    let n = 500;
     let mut sum = 0.0;
     for i in 0..n {
         for j in 0..n {
@@ -371,15 +364,96 @@ fn caustic_map_power_matches_an_independent_integration() {
             let sin = (1.0 - cos * cos).sqrt();
             let phi = 2.0 * PI * (j as f64 + 0.5) / n as f64;
             let d = axis * cos + t1 * (sin * phi.cos()) + t2 * (sin * phi.sin());
-            sum += transmitted_fraction(light, d, false, 0);
+            let i = intensity(d);
+            if i > 0.0 {
+                sum += i * transmitted_fraction(light, d, false, 0);
+            }
         }
     }
-    let omega = 2.0 * PI * (1.0 - cos_max);
-    let expected = 60.0 * omega * sum / (n * n) as f64;
+    2.0 * PI * (1.0 - cos_max) * sum / (n * n) as f64
+}
+
+#[test]
+fn caustic_map_power_matches_an_independent_integration() {
+    let scene = canonical();
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let map = caustic_map(&scene, &embree, 2, 20_000);
+    let stored = map.total_power().x;
+    let expected = caustic_power(DVec3::new(-4.0, 4.0, -1.0), |_| 60.0, 500);
     assert!(
         (stored / expected - 1.0).abs() < 0.02,
         "caustic map {stored} W, independent integration {expected} W"
     );
+}
+
+/// Spot lights on the canonical sphere: one whose cone holds only the sphere's rim (the
+/// sphere's centre lies outside it: the photons were shared out by the intensity towards the
+/// centre, 0, and the caustic was left out without a word), one narrower than the sphere (its
+/// photons were drawn over the sphere's cone and most carried nothing) and one wider. Each
+/// caustic map holds the power the spot sends through the sphere, and photons of no power are
+/// not stored.
+#[test]
+fn a_spots_caustic_holds_what_its_cone_sends_through_the_sphere() {
+    let position = DVec3::new(-4.0, 4.0, -1.0);
+    let centre = (DVec3::new(0.0, 1.0, 0.0) - position).normalize();
+    // The sphere's cone is 11.3 degrees wide (half-angle); axes tilted about the vertical plane.
+    let side = centre.cross(DVec3::Y).normalize();
+    let tilted = |deg: f64| {
+        let a = deg.to_radians();
+        centre * a.cos() + centre.cross(side) * a.sin()
+    };
+    for (tilt, cone, falloff) in [
+        (8.0f64, 5.0f64, 3.0f64),
+        (14.0, 5.0, 4.0),
+        (0.0, 5.0, 2.0),
+        (2.0, 30.0, 10.0),
+    ] {
+        let mut scene = canonical();
+        let (cos_cone, cos_falloff_start) =
+            (f64::cos(cone.to_radians()), f64::cos(falloff.to_radians()));
+        let spot = photondiff::scene::Light::Spot {
+            position,
+            direction: tilted(tilt),
+            intensity: DVec3::splat(60.0),
+            cos_cone,
+            cos_falloff_start,
+        };
+        scene.lights = vec![spot];
+        let device = Device::new().unwrap();
+        let embree = scene.build_embree(&device).unwrap();
+        let map = caustic_map(&scene, &embree, 2, 20_000);
+        let stored = map.total_power().x;
+        let expected = caustic_power(position, |d| spot.intensity_towards(d).x, 600);
+        assert!(expected > 0.01, "{expected}");
+        assert!(
+            (stored / expected - 1.0).abs() < 0.02,
+            "tilt {tilt}, cone {cone}: caustic map {stored} W, independent integration {expected} W"
+        );
+        assert_eq!(map.len(), 20_000);
+        assert!(
+            map.photons().iter().all(|p| p.power.x > 0.0),
+            "tilt {tilt}, cone {cone}: photons of no power stored"
+        );
+    }
+}
+
+/// A quad light facing away from every specular object aims no caustic photon (each was drawn,
+/// refused and counted up to the emission cap: 20 million emissions, 6.6 s, for nothing);
+/// turned over, it aims at the sphere.
+#[test]
+fn a_quad_light_facing_away_aims_no_caustic_photons() {
+    let mut scene = canonical();
+    let quad = |edge_v: DVec3| photondiff::scene::Light::Quad {
+        corner: DVec3::new(-0.5, 3.0, 0.5),
+        edge_u: DVec3::X,
+        edge_v,
+        radiance: DVec3::splat(20.0),
+    };
+    scene.lights = vec![quad(DVec3::NEG_Z)]; // edge_u x edge_v = +y: away from the sphere
+    assert!(Emitter::caustic(&scene, 1000, 32.0, 0).is_empty());
+    scene.lights = vec![quad(DVec3::Z)];
+    assert!(!Emitter::caustic(&scene, 1000, 32.0, 0).is_empty());
 }
 
 /// Photon tracing traces its paths 16 to a packet, refilling lanes as paths end; every path

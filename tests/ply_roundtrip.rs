@@ -366,6 +366,32 @@ fn counts_that_do_not_match_the_file_size() {
     assert!(e.starts_with("m.ply: face "), "{e}");
 }
 
+/// Binary faces of two, one or no vertices are skipped and counted, in the general reader and
+/// beside the triangle fast path.
+#[test]
+fn short_binary_faces_are_skipped_and_counted() {
+    let mut bytes = b"ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\n\
+        property float y\nproperty float z\nelement face 5\n\
+        property list uchar int vertex_indices\nend_header\n"
+        .to_vec();
+    for p in [
+        [0f32, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ] {
+        p.iter().for_each(|c| bytes.extend(c.to_le_bytes()));
+    }
+    for face in [&[0, 1, 2][..], &[0, 1], &[], &[3], &[0, 2, 3]] {
+        bytes.push(face.len() as u8);
+        face.iter()
+            .for_each(|i: &i32| bytes.extend(i.to_le_bytes()));
+    }
+    let m = load(&bytes).unwrap();
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2], [0, 2, 3]]);
+    assert_eq!((m.report.faces, m.report.short_faces), (2, 3));
+}
+
 #[test]
 fn out_of_range_and_negative_indices_in_binary_files() {
     let (mut bytes, header) = binary();

@@ -131,6 +131,12 @@ fn describe(mesh: &TriangleMesh, report: &MeshReport) -> String {
             report.skipped_lines_points
         );
     }
+    if report.short_faces > 0 {
+        s += &format!(
+            "  skipped    {} faces of fewer than three vertices (not surfaces)\n",
+            report.short_faces
+        );
+    }
     s += &format!("  memory     {}\n", memory(mesh.bytes()));
     s
 }

@@ -219,6 +219,12 @@ impl Emitter {
                     } => {
                         let centre = corner + (edge_u + edge_v) * 0.5;
                         let cross = edge_u.cross(edge_v);
+                        // A target wholly behind the light's plane gets none of its light
+                        // (every emission towards it was drawn, refused, and counted, up to
+                        // the cap: seconds for nothing).
+                        if cross.normalize().dot(t.center - corner) <= -t.radius {
+                            continue;
+                        }
                         let (axis, cos) = cone(centre, t);
                         let facing = axis.dot(cross.normalize()).max(0.05);
                         (
@@ -248,7 +254,7 @@ impl Emitter {
                     target: Some(target),
                     probability: p,
                     spread,
-                    cone: light_cone(&light, Some(&target)),
+                    cone: aimed_cone(&light, &target),
                 }
             })
             .collect();
@@ -390,8 +396,15 @@ impl Emitter {
                         source.light.intensity_towards(d)
                             * (cone.solid_angle() / source.probability)
                     }
+                    // A spot lighting part of the target's cone: the directions outside its
+                    // own cone carry nothing, and are not traced (they would be stored as
+                    // photons of no power, counted among those asked for).
                     Some(_) => {
-                        source.light.intensity_towards(d) / self.density(position, &source.light, d)
+                        let intensity = source.light.intensity_towards(d);
+                        if intensity == DVec3::ZERO {
+                            return None;
+                        }
+                        intensity / self.density(position, &source.light, d)
                     }
                 };
                 Some(start(&Launch {
@@ -417,13 +430,15 @@ impl Emitter {
     /// `light` at `position`: power and spread from the mixture's density in `d`.
     fn emit_mixture(&self, light: &Light, position: DVec3, d: DVec3, unit: f64) -> Option<Launch> {
         let pdf = self.density(position, light, d);
-        if pdf <= 0.0 {
+        let intensity = light.intensity_towards(d);
+        // (A spot's aimed share may reach beyond its cone: nothing to trace there.)
+        if pdf <= 0.0 || intensity == DVec3::ZERO {
             return None;
         }
         Some(Launch {
             emission: Emission {
                 ray: RayDifferential::new(position, d),
-                power: light.intensity_towards(d) / pdf,
+                power: intensity / pdf,
             },
             spread: Some(unit / pdf.sqrt()),
         })
@@ -497,12 +512,72 @@ impl Emitter {
     }
 }
 
-/// The solid angle of `target`'s cone seen from a point or spot light at `position`, and the
-/// mean intensity the light sends along the cone's axis: what a light-target pair's share of
-/// aimed photons is weighed by (their product is about the power it sends into the cone).
+/// What a point or spot light at `position` sends into `target`'s cone: the solid angle of
+/// the part of the cone it lights, and its mean intensity there (their product is the power
+/// into the cone, what a light-target pair's share of aimed photons is weighed by; the solid
+/// angle sizes the photons' beams). `(0, 0)` when the light sends nothing that way.
+///
+/// A spot's intensity depends on the angle from its axis alone, so the integral runs over
+/// that angle, each circle around the axis weighed by the arc of it inside the target's cone
+/// (exact for the cone, a midpoint rule in the angle). Reading the intensity on the cone's
+/// axis alone dropped a glass object whose centre lay just outside a spot's cone: its lit part
+/// had no caustic, without a word.
 fn cone_towards(light: &Light, position: DVec3, target: &Target) -> (f64, f64) {
-    let (axis, cos) = cone(position, target);
-    (cone_solid_angle(cos), mean(light.intensity_towards(axis)))
+    let (axis, cos_alpha) = cone(position, target);
+    let Light::Spot {
+        direction,
+        cos_cone,
+        ..
+    } = *light
+    else {
+        return (
+            cone_solid_angle(cos_alpha),
+            mean(light.intensity_at_cosine(1.0)),
+        );
+    };
+    let alpha = cos_alpha.clamp(-1.0, 1.0).acos();
+    let beta = axis.dot(direction).clamp(-1.0, 1.0).acos();
+    let (low, high) = (
+        (beta - alpha).max(0.0),
+        cos_cone.clamp(-1.0, 1.0).acos().min(beta + alpha),
+    );
+    if low >= high {
+        return (0.0, 0.0);
+    }
+    // The arc (radians of azimuth) of the circle at `theta` from the spot's axis inside the
+    // target's cone: a point at azimuth phi has cos(angle to the cone's axis) =
+    // cos(theta) cos(beta) + sin(theta) sin(beta) cos(phi).
+    let arc = |theta: f64| {
+        let (s, c) = theta.sin_cos();
+        let across = s * beta.sin();
+        if across <= 1e-300 {
+            return if c * beta.cos() >= cos_alpha {
+                2.0 * PI
+            } else {
+                0.0
+            };
+        }
+        2.0 * ((cos_alpha - c * beta.cos()) / across)
+            .clamp(-1.0, 1.0)
+            .acos()
+    };
+    const STEPS: usize = 512;
+    let step = (high - low) / STEPS as f64;
+    let (mut omega, mut power) = (0.0, 0.0);
+    for k in 0..STEPS {
+        let theta = low + (k as f64 + 0.5) * step;
+        let d_omega = arc(theta) * theta.sin() * step;
+        let intensity = mean(light.intensity_at_cosine(theta.cos()));
+        if intensity > 0.0 {
+            omega += d_omega;
+            power += intensity * d_omega;
+        }
+    }
+    if power > 0.0 {
+        (omega, power / omega)
+    } else {
+        (0.0, 0.0)
+    }
 }
 
 /// The cone a point or spot light's photons are drawn from: towards `target` if given, else
@@ -527,6 +602,17 @@ fn light_cone(light: &Light, target: Option<&Target>) -> Option<Cone> {
         (Light::Point { .. }, None) => (DVec3::NEG_Y, -1.0),
     };
     Some(Cone::new(axis, cos_max))
+}
+
+/// The cone a caustic photon of a point or spot light aimed at `target` is drawn from: the
+/// target's, or a spot's own where that is narrower (a narrow spot on a large glass object:
+/// drawn from the target's cone, most directions would carry nothing); `None` for quad lights.
+fn aimed_cone(light: &Light, target: &Target) -> Option<Cone> {
+    let towards = light_cone(light, Some(target))?;
+    match (*light, light_cone(light, None)) {
+        (Light::Spot { .. }, Some(own)) if own.solid_angle() < towards.solid_angle() => Some(own),
+        _ => Some(towards),
+    }
 }
 
 /// Mean-channel power of a light (W): sets how many global photons it emits.
@@ -569,5 +655,87 @@ mod tests {
             .sum::<f64>()
             / 100_000.0;
         assert!(mean_cos.abs() < 1e-3, "{mean_cos}");
+    }
+
+    fn spot(direction: DVec3, cone_deg: f64, falloff_deg: f64) -> Light {
+        Light::Spot {
+            position: DVec3::ZERO,
+            direction: direction.normalize(),
+            intensity: DVec3::splat(3.0),
+            cos_cone: cone_deg.to_radians().cos(),
+            cos_falloff_start: falloff_deg.to_radians().cos(),
+        }
+    }
+
+    /// The lit solid angle and mean intensity of `light` over `target`'s cone by sampling
+    /// the cone uniformly (`n` x `n` stratified directions).
+    fn sampled(light: &Light, target: &Target, n: u64) -> (f64, f64) {
+        let (axis, cos_max) = cone(DVec3::ZERO, target);
+        let (mut lit, mut sum) = (0.0, 0.0);
+        for i in 0..n * n {
+            let (u, v) = (
+                ((i % n) as f64 + 0.5) / n as f64,
+                ((i / n) as f64 + 0.5) / n as f64,
+            );
+            let intensity = mean(light.intensity_towards(sample_cone(axis, cos_max, u, v)));
+            if intensity > 0.0 {
+                lit += 1.0;
+                sum += intensity;
+            }
+        }
+        let omega = cone_solid_angle(cos_max);
+        (
+            omega * lit / (n * n) as f64,
+            if lit > 0.0 { sum / lit } else { 0.0 },
+        )
+    }
+
+    /// What a spot sends into a target's cone, against sampling the cone: a cone wholly lit,
+    /// one lit only in part (the target's centre outside the spot's cone, which read 0 and
+    /// dropped the caustic), one wholly inside the target's, and one the spot misses.
+    #[test]
+    fn a_spot_lights_the_part_of_a_target_inside_its_cone() {
+        let target = Target {
+            center: DVec3::new(0.0, -5.0, 0.0),
+            radius: 1.0,
+        };
+        let half = (1.0f64 / 5.0).asin().to_degrees(); // 11.5 degrees
+        let tilted = |deg: f64| {
+            let a = deg.to_radians();
+            DVec3::new(a.sin(), -a.cos(), 0.0)
+        };
+        for (light, lit) in [
+            (spot(tilted(0.0), 30.0, 25.0), 1.0),
+            (spot(tilted(3.0), 30.0, 10.0), 1.0),
+            (spot(tilted(half + 2.0), 5.0, 2.0), 0.0),
+            (spot(tilted(1.0), 3.0, 1.0), 0.0),
+        ] {
+            let (omega, intensity) = cone_towards(&light, DVec3::ZERO, &target);
+            let (want_omega, want_intensity) = sampled(&light, &target, 600);
+            assert!(omega > 0.0);
+            assert!(
+                (omega / want_omega - 1.0).abs() < 2e-3,
+                "{omega} {want_omega}"
+            );
+            assert!(
+                (intensity / want_intensity - 1.0).abs() < 2e-3,
+                "{intensity} {want_intensity}"
+            );
+            if lit == 1.0 {
+                let whole = cone_solid_angle((1.0 - 1.0f64 / 25.0).sqrt());
+                assert!((omega / whole - 1.0).abs() < 1e-4, "{omega} {whole}");
+            }
+        }
+        // Missed by 1 degree: nothing, rather than a share of photons that all carry nothing.
+        let light = spot(tilted(half + 6.0), 5.0, 2.0);
+        assert_eq!(cone_towards(&light, DVec3::ZERO, &target), (0.0, 0.0));
+        // A point light: the whole cone at its intensity.
+        let light = Light::Point {
+            position: DVec3::ZERO,
+            intensity: DVec3::new(1.0, 2.0, 3.0),
+        };
+        let (omega, intensity) = cone_towards(&light, DVec3::ZERO, &target);
+        assert_eq!(omega, cone_solid_angle(cone(DVec3::ZERO, &target).1));
+        assert_eq!(intensity, 2.0);
     }
 }

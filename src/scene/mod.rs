@@ -93,15 +93,22 @@ impl Light {
     /// Intensity of a point or spot light towards the unit direction `w` (away from the light).
     pub fn intensity_towards(&self, w: DVec3) -> DVec3 {
         match *self {
+            Light::Spot { direction, .. } => self.intensity_at_cosine(w.dot(direction)),
+            _ => self.intensity_at_cosine(1.0),
+        }
+    }
+
+    /// Intensity of a point or spot light towards a direction whose cosine with a spot's
+    /// axis is `c` (a point light's is the same every way; a quad light has none).
+    pub fn intensity_at_cosine(&self, c: f64) -> DVec3 {
+        match *self {
             Light::Point { intensity, .. } => intensity,
             Light::Spot {
-                direction,
                 intensity,
                 cos_cone,
                 cos_falloff_start,
                 ..
             } => {
-                let c = w.dot(direction);
                 if c <= cos_cone {
                     DVec3::ZERO
                 } else if c >= cos_falloff_start {

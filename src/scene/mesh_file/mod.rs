@@ -2,7 +2,7 @@
 //! ([`ply`]), streamed from disk straight into the final vertex and index buffers.
 //!
 //! What every tool opens is accepted, and repaired where the renderer needs it ([`repair`]):
-//! degenerate triangles are dropped and zero or non-finite vertex normals replaced, each counted
+//! degenerate triangles and faces of fewer than three vertices are dropped and zero or non-finite vertex normals replaced, each counted
 //! in a [`MeshReport`] (the command line warns once per mesh). Truly broken files (indices out of
 //! range, truncated data, non-numbers, non-finite positions) are errors naming the file and the
 //! element or line; a header that lies about its counts is refused before anything big is
@@ -34,6 +34,9 @@ pub struct MeshReport {
     pub repaired_normals: u64,
     /// Lines and points (OBJ `l`/`p`) skipped: they are not surfaces.
     pub skipped_lines_points: u64,
+    /// Faces of fewer than three vertices skipped: such a face is a line, a point or nothing,
+    /// and exporters write them for edges and loose vertices.
+    pub short_faces: u64,
     /// Triangles whose winding points away from all three of their vertex normals: the
     /// winding decides which side is outside, so such a mesh's glass is inside out.
     pub against_normals: u64,
@@ -67,6 +70,13 @@ impl MeshReport {
                 plural(self.against_normals)
             ));
         }
+        if self.short_faces > 0 {
+            parts.push(format!(
+                "skipped {} face{} of fewer than three vertices (not surfaces)",
+                self.short_faces,
+                plural(self.short_faces)
+            ));
+        }
         if self.repaired_normals > 0 {
             parts.push(format!(
                 "replaced {} zero or non-finite vertex normal{} by the geometric normal there",
@@ -86,6 +96,7 @@ impl MeshReport {
         self.first_degenerate = self.first_degenerate.or(other.first_degenerate);
         self.repaired_normals += other.repaired_normals;
         self.skipped_lines_points += other.skipped_lines_points;
+        self.short_faces += other.short_faces;
         self.against_normals += other.against_normals;
     }
 }

@@ -198,7 +198,8 @@ impl Builder {
         }
         let n = self.face.len();
         if n < 3 {
-            return Err(format!("a face needs at least 3 vertices, got {n}"));
+            self.report.short_faces += 1;
+            return Ok(());
         }
         let (face, positions, triangles) = (&self.face, &self.positions, &mut self.triangles);
         let shape = triangulate(
@@ -279,6 +280,36 @@ impl Builder {
     }
 }
 
+/// Appends the next line of `reader` to `line` with its ending and returns the bytes consumed
+/// (0 at the end). A line ends in `\n`, `\r\n` or a lone `\r` (classic Mac OS, whose files
+/// were otherwise one long line that said nothing useful).
+fn read_line(reader: &mut impl BufRead, line: &mut Vec<u8>) -> std::io::Result<usize> {
+    let mut consumed = 0;
+    loop {
+        let buf = reader.fill_buf()?;
+        if buf.is_empty() {
+            return Ok(consumed);
+        }
+        let Some(i) = memchr::memchr2(b'\n', b'\r', buf) else {
+            let n = buf.len();
+            line.extend_from_slice(buf);
+            reader.consume(n);
+            consumed += n;
+            continue;
+        };
+        let ending = buf[i];
+        line.extend_from_slice(&buf[..=i]);
+        reader.consume(i + 1);
+        consumed += i + 1;
+        if ending == b'\r' && reader.fill_buf()?.first() == Some(&b'\n') {
+            line.push(b'\n');
+            reader.consume(1);
+            consumed += 1;
+        }
+        return Ok(consumed);
+    }
+}
+
 /// Parses OBJ text from `reader`, line by line.
 pub fn parse(mut reader: impl BufRead) -> Result<(TriangleMesh, MeshReport), String> {
     let mut builder = Builder::default();
@@ -289,9 +320,8 @@ pub fn parse(mut reader: impl BufRead) -> Result<(TriangleMesh, MeshReport), Str
         let start = number + 1;
         // A line ending in a backslash continues on the next one.
         loop {
-            let n = reader
-                .read_until(b'\n', &mut line)
-                .map_err(|e| format!("cannot read OBJ: {e}"))?;
+            let n =
+                read_line(&mut reader, &mut line).map_err(|e| format!("cannot read OBJ: {e}"))?;
             if n == 0 {
                 break;
             }

@@ -221,11 +221,12 @@ impl Sink {
     }
 
     /// Adds the polygon in `self.corners` (checked indices): a triangle, or an n-gon
-    /// triangulated in its plane. Fewer than three corners is an error.
+    /// triangulated in its plane. A face of fewer than three corners is skipped and counted.
     pub fn polygon(&mut self, face: u64) -> Result<(), String> {
         let n = self.corners.len();
         if n < 3 {
-            return Err(format!("face {face} has {n} vertices"));
+            self.report.short_faces += 1;
+            return Ok(());
         }
         self.report.faces += 1;
         if n == 3 {
