@@ -329,6 +329,37 @@ fn merge_refuses_foreign_overlapping_and_incomplete_parts() {
     );
     let e = merge(&[&a[2]]);
     assert_eq!(e, "photondiff: error: missing tiles: 0/4, 1/4, 3/4");
+    // A part changed after it was written (one value, the file otherwise whole).
+    let damaged = d.join("damaged.exr");
+    std::fs::copy(&a[1], &damaged).unwrap();
+    tamper(&damaged, "G", 37);
+    let e = merge(&[&a[0], &damaged, &a[2], &a[3]]);
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {}: its pixels do not match the checksum written with them: the file was changed or damaged after it was written",
+            s(&damaged)
+        )
+    );
+}
+
+/// Changes sample `i` of channel `name` of the EXR at `path` (its lowest bit), keeping every
+/// attribute as written: a part damaged after it was written.
+fn tamper(path: &Path, name: &str, i: usize) {
+    use exr::prelude::*;
+    let mut image = read_all_data_from_file(path).unwrap();
+    let channel = image.layer_data[0]
+        .channel_data
+        .list
+        .iter_mut()
+        .find(|c| c.name.to_string() == name)
+        .unwrap();
+    match &mut channel.sample_data {
+        Levels::Singular(FlatSamples::F32(v)) => v[i] = f32::from_bits(v[i].to_bits() ^ 1),
+        Levels::Singular(FlatSamples::U32(v)) => v[i] ^= 1,
+        _ => panic!("{name}: not f32 or u32 samples"),
+    }
+    image.write().to_file(path).unwrap();
 }
 
 #[test]
@@ -553,6 +584,19 @@ fn pass_ranges_and_tiles_merge_into_the_single_process_image_bit_for_bit() {
     );
     let (out, args) = merge("ranges.exr", &[&r1, &r0]);
     ok(&args.iter().map(|a| a.as_str()).collect::<Vec<_>>());
+    // A pass sum changed after the part was written: merged, it moved the image (one flipped
+    // byte: relRMSE 1.9e13) without a word.
+    let damaged = d.join("damaged.exr");
+    std::fs::copy(&r1, &damaged).unwrap();
+    tamper(&damaged, "pd.fixed.R.1", 200);
+    let (_, bad) = merge("bad.exr", &[&damaged, &r0]);
+    assert_eq!(
+        error(&bad.iter().map(|a| a.as_str()).collect::<Vec<_>>()),
+        format!(
+            "photondiff: error: {}: its pass sums do not match the checksum written with them: the file was changed or damaged after it was written",
+            s(&damaged)
+        )
+    );
     pass_range_reports(&scene, d, &args);
     assert!(
         bits(&out) == bits(&whole),

@@ -457,6 +457,81 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
     assert_eq!(names.len(), 1, "only the scene: {names:?}");
 }
 
+/// Outputs that name one of the scene's mesh files (a shape's, a placed `[meshes.NAME]`'s or
+/// an unplaced one's) are refused once the scene is read, before anything is written: every
+/// command replaced the mesh and exited 0, and the next run could not read it.
+#[test]
+fn outputs_may_not_overwrite_the_scenes_mesh_files() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let triangle = "v -1 0 -1\nv 1 0 -1\nv 0 0 1\nf 1 3 2\n";
+    std::fs::create_dir(dir.path().join("meshes")).unwrap();
+    for name in ["tri.obj", "meshes/placed.obj", "meshes/spare.obj"] {
+        std::fs::write(dir.path().join(name), triangle).unwrap();
+    }
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(
+        &scene,
+        format!(
+            "{CAMERA}{REST}\n[[shapes]]\ntype = \"mesh\"\nfile = \"tri.obj\"\nmaterial = \"white\"\n\
+             [meshes.placed]\nfile = \"meshes/placed.obj\"\n[meshes.spare]\nfile = \"meshes/spare.obj\"\n\
+             [[instances]]\nmesh = \"placed\"\nmaterial = \"white\"\ntranslate = [0.0, 1.0, 0.0]\n"
+        ),
+    )
+    .unwrap();
+    let at = |name: &str| dir.path().join(name).display().to_string();
+    let cases: [(&[&str], &str, &str); 4] = [
+        (
+            &["render", "-o", "x.exr", "--stats-json"],
+            "tri.obj",
+            "--stats-json",
+        ),
+        (&["photons", "-o"], "meshes/../tri.obj", "-o"),
+        (
+            &["reference", "-o", "r.exr", "--trace"],
+            "meshes/placed.obj",
+            "--trace",
+        ),
+        (
+            &["render", "-o", "x.exr", "--png"],
+            "meshes/spare.obj",
+            "--png",
+        ),
+    ];
+    for (args, mesh, flag) in cases {
+        let out = Command::new(exe)
+            .arg(args[0])
+            .arg(&scene)
+            .args(args[1..].iter().map(|a| {
+                if a.ends_with(".exr") {
+                    at(a)
+                } else {
+                    a.to_string()
+                }
+            }))
+            .arg(at(mesh))
+            .args(["--quiet"])
+            .output()
+            .unwrap();
+        let named = at(mesh.trim_start_matches("meshes/../"));
+        assert_eq!(
+            String::from_utf8_lossy(&out.stderr),
+            format!("photondiff: error: {flag} names a mesh file of the scene ({named}): the run would overwrite it\n"),
+            "{args:?}"
+        );
+        assert_eq!(out.status.code(), Some(1), "{args:?}");
+    }
+    for name in ["tri.obj", "meshes/placed.obj", "meshes/spare.obj"] {
+        assert_eq!(
+            std::fs::read_to_string(dir.path().join(name)).unwrap(),
+            triangle
+        );
+    }
+    for name in ["x.exr", "x.png", "r.exr", "r-a.exr"] {
+        assert!(!dir.path().join(name).exists(), "{name}");
+    }
+}
+
 /// Path counts past the cap are refused by the option parser (2^64 - 1 paths tried to
 /// allocate petabytes for their schedule and aborted).
 #[test]

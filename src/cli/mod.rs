@@ -15,8 +15,13 @@ use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
 
 /// Loads the scene at `path` (its mesh files' reading a bar, `load`, when `progress`: a large
-/// mesh takes seconds to read) and prints its warnings.
-pub fn load_scene(path: &Path, progress: bool) -> Result<(Scene, u64), String> {
+/// mesh takes seconds to read), refuses `outputs` that name one of its mesh files (known only
+/// once the scene is read: a scene may be a pipe, read once) and prints its warnings.
+pub fn load_scene(
+    path: &Path,
+    progress: bool,
+    outputs: &[(&str, &Path)],
+) -> Result<(Scene, u64), String> {
     let bar = photondiff::util::progress::bar(progress, 1, "load");
     let loaded = photondiff::scene::file::load_scene_hashed(path, |done, total| {
         if bar.length() != Some(total) {
@@ -26,6 +31,15 @@ pub fn load_scene(path: &Path, progress: bool) -> Result<(Scene, u64), String> {
     });
     bar.finish_and_clear();
     let (scene, hash) = loaded.map_err(|e| e.to_string())?;
+    for (flag, output) in outputs {
+        let here = resolved(output);
+        if let Some(mesh) = scene.mesh_files.iter().find(|m| resolved(m) == here) {
+            return Err(format!(
+                "{flag} names a mesh file of the scene ({}): the run would overwrite it",
+                mesh.display()
+            ));
+        }
+    }
     warn_about_scene(path, &scene);
     Ok((scene, hash))
 }

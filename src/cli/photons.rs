@@ -66,7 +66,9 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     let options = args.photons.options(&defaults, args.seed)?;
     super::start_trace(args.trace.as_deref())?;
     let mut stats = Stats::of_this_build();
-    let (scene, hash) = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
+    let (scene, hash) = stats.time("load scene", || {
+        super::load_scene(&args.scene, !args.quiet, &outputs)
+    })?;
     let (device, embree, bvh) = stats.time("build BVH", || {
         args.bvh.build(&scene, &args.scene, !args.quiet)
     })?;

@@ -341,7 +341,9 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         true => None,
         false => Some(stats.time("read references", || read_parts(&args.merge))?),
     };
-    let (scene, hash) = stats.time("load scene", || super::load_scene(&args.scene, !args.quiet))?;
+    let (scene, hash) = stats.time("load scene", || {
+        super::load_scene(&args.scene, !args.quiet, &outputs)
+    })?;
     let (device, embree, bvh) = stats.time("build BVH", || {
         args.bvh.build(&scene, &args.scene, !args.quiet)
     })?;

@@ -24,6 +24,9 @@ pub const PER_PART: &[&str] = &[
     "photondiff/render_seconds",
     "photondiff/stats",
     "photondiff/parts",
+    // Each file's own pixels' (`render::checksum`).
+    "photondiff/rgb_xxh3",
+    "photondiff/sums_xxh3",
     // The noise estimate of a progressive render is its part's; the whole has none.
     "photondiff/passes_stopped_by",
     "photondiff/noise_whole",

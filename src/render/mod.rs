@@ -6,6 +6,7 @@
 //! average independent passes ([`pass_sum`]) and estimate the noise of their mean ([`noise`]).
 
 pub mod camera_path;
+pub mod checksum;
 pub mod defaults;
 pub mod direct_light;
 pub mod edges;

@@ -68,6 +68,13 @@ pub fn read_part(path: &Path) -> Result<Part, String> {
             metadata.insert(key.to_string(), text.to_string());
         }
     }
+    super::checksum::check(path, &metadata, super::checksum::RGB_KEY, || {
+        super::checksum::rgb(
+            film.pixels
+                .iter()
+                .map(|p| [p.x as f32, p.y as f32, p.z as f32]),
+        )
+    })?;
     Ok(Part {
         path: path.to_path_buf(),
         film,

@@ -9,6 +9,7 @@
 //! (the f64 bits of the floating-point sum and of the sum of squares), and `pd.flags`
 //! (bit 0: every value fitted the fixed point; bit 1: the caustic estimate reached the pixel).
 
+use super::checksum;
 use super::pass_sum::PassSum;
 use exr::prelude::*;
 use std::path::Path;
@@ -51,13 +52,26 @@ pub fn write_pass_part(
     u32s("pd.flags".into(), &|i| {
         sum.exact[i] as u32 | (sum.reach[i] as u32) << 1
     });
+    let sums = checksum::words(channels.iter().map(|c| match &c.sample_data {
+        FlatSamples::U32(v) => v.as_slice(),
+        _ => unreachable!("the sums are 32-bit words"),
+    }));
     for (c, name) in RGB.iter().enumerate() {
         let values = mean.pixels.iter().map(|p| p[c] as f32).collect();
         channels.push(AnyChannel::new(*name, FlatSamples::F32(values)));
     }
+    let rgb = checksum::rgb(
+        mean.pixels
+            .iter()
+            .map(|p| [p.x as f32, p.y as f32, p.z as f32]),
+    );
+    let checksums = [
+        (checksum::RGB_KEY.to_string(), rgb),
+        (checksum::SUMS_KEY.to_string(), sums),
+    ];
     let mut attributes = LayerAttributes::named("photondiff");
     attributes.layer_position = Vec2(origin.0 as i32, origin.1 as i32);
-    for (key, value) in metadata {
+    for (key, value) in metadata.iter().chain(&checksums) {
         if let (Some(k), Some(v)) = (Text::new_or_none(key), Text::new_or_none(value)) {
             attributes.other.insert(k, AttributeValue::Text(v));
         }
@@ -98,6 +112,31 @@ pub fn read_pass_sum(path: &Path, passes: u64) -> std::result::Result<PassSum, S
             )),
         }
     };
+    // The channels in the order they were written, for the checksum.
+    let mut written: Vec<&[u32]> = Vec::new();
+    for cname in RGB {
+        for w in 0..4 {
+            written.push(channel(&format!("pd.fixed.{cname}.{w}"))?);
+        }
+        for w in 0..2 {
+            written.push(channel(&format!("pd.float.{cname}.{w}"))?);
+            written.push(channel(&format!("pd.square.{cname}.{w}"))?);
+        }
+    }
+    written.push(channel("pd.flags")?);
+    let metadata = image
+        .attributes
+        .other
+        .iter()
+        .chain(layer.attributes.other.iter())
+        .filter_map(|(k, v)| match v {
+            AttributeValue::Text(t) => Some((k.to_string(), t.to_string())),
+            _ => None,
+        })
+        .collect();
+    checksum::check(path, &metadata, checksum::SUMS_KEY, || {
+        checksum::words(written.iter().copied())
+    })?;
     let mut sum = PassSum::new(width, height);
     let n = sum.fixed.len();
     for (c, cname) in RGB.iter().enumerate() {

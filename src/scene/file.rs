@@ -568,11 +568,20 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
         .filter(|name| !placed.contains(name.as_str()))
         .cloned()
         .collect();
+    let named = file.shapes.iter().filter_map(|s| match s {
+        ShapeDesc::Mesh(MeshShape { file, .. }) => Some(file),
+        _ => None,
+    });
+    let mesh_files = named
+        .chain(file.meshes.values().map(|m| &m.file))
+        .map(|f| base.join(f))
+        .collect();
     Ok(Scene {
         camera,
         lights,
         meshes,
         unplaced_meshes,
+        mesh_files,
     })
 }
 

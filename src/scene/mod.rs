@@ -175,6 +175,9 @@ pub struct Scene {
     pub meshes: Vec<SceneMesh>,
     /// The `[meshes.NAME]` no instance places, by name (their files are not read).
     pub unplaced_meshes: Vec<String>,
+    /// Every mesh file the scene file names (placed or not), resolved: inputs that no output
+    /// of a run may overwrite.
+    pub mesh_files: Vec<std::path::PathBuf>,
 }
 
 impl Scene {
