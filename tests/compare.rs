@@ -454,6 +454,33 @@ fn report_refuses_non_finite_images_and_exposures() {
         )
     );
     assert!(!out.exists());
+    // A chart a report wrote into the folder before, given again: copied onto itself, it was
+    // emptied; two such charts swap places whole.
+    let (first, second) = (d.path().join("a.svg"), d.path().join("b.svg"));
+    std::fs::write(&first, "<svg>a</svg>").unwrap();
+    std::fs::write(&second, "<svg>bb</svg>").unwrap();
+    let charts = [
+        "--chart",
+        first.to_str().unwrap(),
+        "--chart",
+        second.to_str().unwrap(),
+    ];
+    assert!(report(&charts, &r).status.success());
+    let (zero, one) = (out.join("img/chart-0.svg"), out.join("img/chart-1.svg"));
+    let swapped = [
+        "--chart",
+        one.to_str().unwrap(),
+        "--chart",
+        zero.to_str().unwrap(),
+    ];
+    let again = report(&swapped, &r);
+    assert!(
+        again.status.success(),
+        "{}",
+        String::from_utf8_lossy(&again.stderr)
+    );
+    assert_eq!(std::fs::read_to_string(&zero).unwrap(), "<svg>bb</svg>");
+    assert_eq!(std::fs::read_to_string(&one).unwrap(), "<svg>a</svg>");
 }
 
 /// Two tiles of one size from other places of the image are not compared as the same pixels

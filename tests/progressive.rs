@@ -569,4 +569,21 @@ fn the_command_line_reports_passes_and_noise_and_stops_by_its_rules() {
         (p["passes"].as_u64(), p["stop"].as_str()),
         (Some(1), Some("time_budget"))
     );
+    // The light below the floor: a black image has no relative noise, and the passes went on
+    // forever waiting for it; they stop after two, saying why.
+    let dark =
+        common::SMALL_SCENE.replace("position = [0.0, 4.0, 0.0]", "position = [0.0, -4.0, 0.0]");
+    assert_ne!(dark, common::SMALL_SCENE);
+    std::fs::write(scene, dark).unwrap();
+    let p = run(&["--target-noise", "0.01"])["progressive"].clone();
+    assert_eq!(
+        (p["passes"].as_u64(), p["stop"].as_str()),
+        (Some(2), Some("black_image"))
+    );
+    let out = photondiff(&[&render[..], &["--target-noise", "0.01", scene]].concat());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("stopped by a black image (no noise to measure against the target))"),
+        "{stderr}"
+    );
 }

@@ -169,6 +169,18 @@ pub fn write(report: &Report, dir: &Path) -> Result<PathBuf, String> {
             ));
         }
     }
+    // The chart files are read before anything is written: a chart may be one a report
+    // wrote into this folder before (`img/chart-0.svg`), which copying emptied.
+    let chart_files = report
+        .charts
+        .iter()
+        .map(|c| match c {
+            Chart::File(path) => std::fs::read(path)
+                .map(Some)
+                .map_err(|e| format!("{}: cannot read chart: {e}", path.display())),
+            Chart::Svg { .. } => Ok(None),
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let img = dir.join("img");
     std::fs::create_dir_all(&img)
         .map_err(|e| format!("{}: cannot create folder: {e}", img.display()))?;
@@ -351,17 +363,18 @@ pub fn write(report: &Report, dir: &Path) -> Result<PathBuf, String> {
         }
     }
 
-    for (k, chart) in report.charts.iter().enumerate() {
-        let (heading, name) = match chart {
-            Chart::File(path) => {
+    for (k, (chart, bytes)) in report.charts.iter().zip(&chart_files).enumerate() {
+        let (heading, name) = match (chart, bytes) {
+            (Chart::File(path), Some(bytes)) => {
                 let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("png");
                 let name = format!("chart-{k}.{ext}");
-                std::fs::copy(path, img.join(&name))
+                std::fs::write(img.join(&name), bytes)
                     .map_err(|e| format!("{}: cannot copy chart: {e}", path.display()))?;
                 let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
                 (stem.unwrap_or_default(), name)
             }
-            Chart::Svg { name, svg } => {
+            (Chart::File(_), None) => unreachable!("every chart file was read"),
+            (Chart::Svg { name, svg }, _) => {
                 let file = format!("chart-{k}.svg");
                 std::fs::write(img.join(&file), svg)
                     .map_err(|e| format!("{}: cannot write: {e}", img.join(&file).display()))?;

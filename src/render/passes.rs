@@ -141,6 +141,9 @@ pub enum StopReason {
     TargetNoise,
     /// A stop was requested (Ctrl-C): the image is the mean of the passes done.
     Interrupted,
+    /// With a target noise, two passes gave an image black everywhere: its relative noise is
+    /// undefined, and waiting for it ran forever.
+    BlackImage,
 }
 
 impl StopReason {
@@ -151,6 +154,7 @@ impl StopReason {
             StopReason::TimeBudget => "the time budget",
             StopReason::TargetNoise => "the target noise",
             StopReason::Interrupted => "an interrupt",
+            StopReason::BlackImage => "a black image (no noise to measure against the target)",
         }
     }
 }
@@ -383,10 +387,11 @@ impl Progressive<'_> {
                     break StopReason::TimeBudget;
                 }
             }
-            if let (Some(target), Some(now)) = (stop.target_noise, noise.worst()) {
-                if now < target {
-                    break StopReason::TargetNoise;
-                }
+            match (stop.target_noise, noise.worst()) {
+                (Some(target), Some(now)) if now < target => break StopReason::TargetNoise,
+                // Two passes or more: the noise is known unless the image is black.
+                (Some(_), None) if done >= 2 => break StopReason::BlackImage,
+                _ => {}
             }
             if stop.on_interrupt && done > 0 && crate::util::interrupt::requested() {
                 crate::util::interrupt::honour();
