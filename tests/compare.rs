@@ -612,3 +612,80 @@ fn an_all_zero_reference_gives_an_absolute_error_map() {
     assert!(differ(0, 20) > 20, "{}", differ(0, 20));
     assert_eq!(differ(24, 180), 0);
 }
+
+/// The header of an uncompressed scanline EXR of `w` x `h` pixels of three f32 channels.
+fn exr_header(w: i32, h: i32) -> Vec<u8> {
+    let attribute = |name: &str, kind: &str, data: &[u8]| {
+        let mut a = [name.as_bytes(), b"\0", kind.as_bytes(), b"\0"].concat();
+        a.extend((data.len() as i32).to_le_bytes());
+        a.extend(data);
+        a
+    };
+    let mut channels = Vec::new();
+    for c in ["B", "G", "R"] {
+        channels.extend(c.as_bytes());
+        channels.push(0);
+        channels.extend(2i32.to_le_bytes()); // f32
+        channels.extend([0, 0, 0, 0]);
+        channels.extend(1i32.to_le_bytes());
+        channels.extend(1i32.to_le_bytes());
+    }
+    channels.push(0);
+    let window: Vec<u8> = [0, 0, w - 1, h - 1]
+        .iter()
+        .flat_map(|v| v.to_le_bytes())
+        .collect();
+    let mut out = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0];
+    out.extend(attribute("channels", "chlist", &channels));
+    out.extend(attribute("compression", "compression", &[0]));
+    out.extend(attribute("dataWindow", "box2i", &window));
+    out.extend(attribute("displayWindow", "box2i", &window));
+    out.extend(attribute("lineOrder", "lineOrder", &[0]));
+    out.extend(attribute("pixelAspectRatio", "float", &1f32.to_le_bytes()));
+    out.extend(attribute("screenWindowCenter", "v2f", &[0; 8]));
+    out.extend(attribute("screenWindowWidth", "float", &1f32.to_le_bytes()));
+    out.push(0);
+    out
+}
+
+/// Files whose header claims more pixels than they hold are refused before the reader
+/// allocates them (a 462-byte file made it ask for 6.4 GB and abort under a memory limit; a
+/// 240 KB one whose offset table pointed every line at the same bytes grew to 20 GB). Run
+/// under a 3 GB address-space limit, so that the allocation fails here rather than filling
+/// the machine.
+#[test]
+fn exr_headers_claiming_more_than_the_file_holds_are_refused() {
+    let d = tempfile::tempdir().unwrap();
+    let small = d.path().join("claims.exr");
+    std::fs::write(&small, [exr_header(40000, 40000), vec![0; 128]].concat()).unwrap();
+    let shared = d.path().join("shared.exr");
+    let header = exr_header(20000, 20000);
+    let mut bytes = header.clone();
+    let line = (header.len() + 8 * 20000) as u64;
+    (0..20000).for_each(|_| bytes.extend(line.to_le_bytes()));
+    bytes.extend(0i32.to_le_bytes());
+    bytes.extend(240000i32.to_le_bytes());
+    bytes.extend(vec![0; 240000]);
+    std::fs::write(&shared, &bytes).unwrap();
+    for (file, w, h) in [(&small, 40000, 40000), (&shared, 20000, 20000)] {
+        let out = std::process::Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "ulimit -v 3000000; exec '{}' compare '{1}' '{1}'",
+                bin(),
+                file.display()
+            ))
+            .output()
+            .unwrap();
+        assert_eq!(
+            String::from_utf8_lossy(&out.stderr),
+            format!(
+                "photondiff: error: {}: its header claims {w} x {h} pixels of 3 channels ({} bytes), more than a file of {} bytes can hold: the file is damaged or not an image\n",
+                file.display(),
+                w as u64 * h as u64 * 12,
+                std::fs::metadata(file).unwrap().len()
+            )
+        );
+        assert_eq!(out.status.code(), Some(1));
+    }
+}

@@ -34,6 +34,7 @@ impl ChannelImage {
     pub fn read(path: &Path) -> Result<Self, String> {
         let name = path.display();
         std::fs::metadata(path).map_err(|e| format!("{name}: cannot open: {e}"))?;
+        crate::util::exr_input::check_size(path)?;
         let image = exr::prelude::read_first_flat_layer_from_file(path)
             .map_err(|e| format!("{name}: cannot read EXR: {}", one_line(&e.to_string())))?;
         let layer = image.layer_data;

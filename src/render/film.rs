@@ -89,6 +89,7 @@ impl Film {
 
     /// Reads the first RGB(A) layer of an EXR file.
     pub fn read_exr(path: &Path) -> Result<Film, String> {
+        crate::util::exr_input::check_size(path)?;
         let image = exr::prelude::read_first_rgba_layer_from_file(
             path,
             |size, _| Film::new(size.width() as u32, size.height() as u32),

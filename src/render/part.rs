@@ -25,6 +25,7 @@ pub struct Part {
 /// Reads an EXR written by `photondiff render` (or merged by `photondiff merge`).
 pub fn read_part(path: &Path) -> Result<Part, String> {
     use exr::prelude::*;
+    crate::util::exr_input::check_size(path)?;
     let image = read_first_rgba_layer_from_file(
         path,
         |size, _| Film::new(size.width() as u32, size.height() as u32),

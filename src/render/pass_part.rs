@@ -95,6 +95,7 @@ pub fn write_pass_part(
 /// Reads the pass sum of a part written by [`write_pass_part`] summing `passes` passes.
 pub fn read_pass_sum(path: &Path, passes: u64) -> std::result::Result<PassSum, String> {
     let name = path.display();
+    crate::util::exr_input::check_size(path)?;
     let image = read_first_flat_layer_from_file(path)
         .map_err(|e| format!("{name}: cannot read EXR: {e}"))?;
     let layer = &image.layer_data;
