@@ -221,6 +221,20 @@ fn take_map(bytes: &[u8], at: &mut usize, class: PathClass) -> Result<Stored, St
              power, area or radius"
         ));
     }
+    // The geometry too: a NaN position or filter row passed into the BVH and the estimates.
+    let unit = |v: Vec3| v.is_finite() && (v.length() - 1.0).abs() < 1e-3;
+    let misplaced = |p: &Photon| {
+        !(p.position.is_finite()
+            && unit(p.normal)
+            && unit(p.direction)
+            && p.m.iter().all(|r| r.is_finite()))
+    };
+    if let Some(i) = photons.par_iter().position_first(misplaced) {
+        return Err(format!(
+            "corrupt photon-map file: the {name} map's photon {i} has a non-finite position or \
+             filter, or a normal or direction that is not a unit vector"
+        ));
+    }
     Ok(Stored { numbers, photons })
 }
 
@@ -418,7 +432,7 @@ mod tests {
                 Photon {
                     position: Vec3::new(f, -f, 0.5 * f),
                     normal: Vec3::Y,
-                    direction: Vec3::new(0.0, -1.0, f.sin()),
+                    direction: Vec3::new(0.0, -1.0, f.sin()).normalize(),
                     power: Vec3::splat(1e-3 * f),
                     m: [Vec3::new(1.0, 2.0, f), Vec3::new(-f, 3.0, 4.0)],
                     inv_area: 1.0 / (1.0 + f),
@@ -538,6 +552,15 @@ mod tests {
                 forged(photon3 + offset, &value.to_le_bytes()),
                 "corrupt photon-map file: the caustic map's photon 3 has a negative or non-finite \
                  power, area or radius",
+                "{offset} {value}"
+            );
+        }
+        // Position x, normal y, direction z, the filter's second row.
+        for (offset, value) in [(0, f32::NAN), (16, 0.0), (32, 3.0), (60, f32::INFINITY)] {
+            assert_eq!(
+                forged(photon3 + offset, &value.to_le_bytes()),
+                "corrupt photon-map file: the caustic map's photon 3 has a non-finite position or \
+                 filter, or a normal or direction that is not a unit vector",
                 "{offset} {value}"
             );
         }
