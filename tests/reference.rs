@@ -647,3 +647,55 @@ fn both_halves_trace_paths_however_few_are_asked() {
         262144
     );
 }
+
+/// The benchmarks' cached reference is read back only for the scene it was made of: the same
+/// scene reads it, the scene edited under the same name makes it anew (it was measured against
+/// the old scene's reference, without a word).
+#[test]
+fn a_cached_reference_is_remade_for_an_edited_scene() {
+    use photondiff::reference::cache::{load_or_make, ReferenceSettings};
+    let dir = tempfile::tempdir().unwrap();
+    let mut scene = canonical(16, 12);
+    let settings = ReferenceSettings {
+        light_paths: 1,
+        caustic_paths: 1,
+        direct_grids: [1, 2],
+        seed: 0,
+    };
+    let device = Device::new().unwrap();
+    let mut cached = |scene: &photondiff::scene::Scene| {
+        let embree = scene.build_embree(&device).unwrap();
+        let mut log = Vec::new();
+        let reference = load_or_make(
+            scene,
+            &embree,
+            dir.path(),
+            "canonical",
+            &settings,
+            &mut |m| log.push(m.to_string()),
+        )
+        .unwrap();
+        // As the file holds them (f32), whether made or read back.
+        let sum = reference
+            .film
+            .pixels
+            .iter()
+            .map(|p| p.x as f32 as f64)
+            .sum::<f64>();
+        (sum, log.join("\n"))
+    };
+    let (first, log) = cached(&scene);
+    assert!(log.contains("reference: making it"), "{log}");
+    let (again, log) = cached(&scene);
+    assert!(!log.contains("making"), "{log}");
+    assert_eq!(again, first);
+    if let photondiff::scene::Light::Point { intensity, .. } = &mut scene.lights[0] {
+        *intensity *= 2.0;
+    }
+    let (edited, log) = cached(&scene);
+    assert!(
+        log.contains("was made of another scene of that name") && log.contains("making it"),
+        "{log}"
+    );
+    assert!((edited / first - 2.0).abs() < 1e-6, "{edited} {first}");
+}

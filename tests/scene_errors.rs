@@ -1087,18 +1087,22 @@ fn options_are_refused_before_the_scene_is_read() {
             format!("photondiff: error: {folder}: cannot read photon maps: is a folder\n")
         )
     );
-    let png = dir.path().join("ref.png");
-    assert_eq!(
-        command_line("reference", &missing, &png, &[]),
-        (
-            Some(1),
-            format!(
-                "photondiff: error: -o {}: a reference is written as OpenEXR (with its halves); \
-                 give it a .exr name\n",
-                png.display()
+    // Nor one with no extension: `-o p1` wrote `p1-a.exr` and `p1-b.exr`, the halves of
+    // another reference `p1.exr`.
+    for name in ["ref.png", "p1"] {
+        let named = dir.path().join(name);
+        assert_eq!(
+            command_line("reference", &missing, &named, &[]),
+            (
+                Some(1),
+                format!(
+                    "photondiff: error: -o {}: a reference is written as OpenEXR (with its halves); \
+                     give it a .exr name\n",
+                    named.display()
+                )
             )
-        )
-    );
+        );
+    }
     // With good options, the missing scene is what is refused.
     let (status, stderr) = command_line("render", &missing, &out, &[]);
     assert_eq!(status, Some(1));

@@ -281,13 +281,14 @@ fn check_halves(path: &Path, r: &Reference) -> Result<(), String> {
 pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     super::check_threads(args.threads)?;
     // Three OpenEXR files: `-o ref.png` held EXR bytes under a PNG's name, beside
-    // `ref-a.exr` and `ref-b.exr`.
+    // `ref-a.exr` and `ref-b.exr`; `-o p1` wrote `p1-a.exr` and `p1-b.exr`, the halves of
+    // another reference `p1.exr`.
     if args
         .output
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase)
-        == Some("png".into())
+        != Some("exr".into())
     {
         return Err(format!(
             "-o {}: a reference is written as OpenEXR (with its halves); give it a .exr name",

@@ -197,6 +197,10 @@ pub fn merge(parts: &[Reference], weights: &[u64]) -> Result<Reference, String> 
     })
 }
 
+/// The attribute naming the scene a cached reference was made of
+/// ([`crate::scene::hash::content_hash`]).
+pub const CONTENT_KEY: &str = "photondiff/scene_content";
+
 /// Loads the reference cached as `{dir}/{name}-{w}x{h}-{settings}.exr` (with `-a`/`-b`
 /// halves), or makes it ([`make`]) and caches it.
 pub fn load_or_make(
@@ -210,15 +214,33 @@ pub fn load_or_make(
     let (w, h) = (scene.camera.width, scene.camera.height);
     let tag = settings.tag();
     let file = |suffix: &str| -> PathBuf { dir.join(format!("{name}-{w}x{h}-{tag}{suffix}.exr")) };
+    // What the reference was made of: a scene edited under the same name is made anew.
+    let content = format!("{:016x}", crate::scene::hash::content_hash(scene));
     if file("").exists() && file("-a").exists() && file("-b").exists() {
         log(&format!("reference: reading {}", file("").display()));
+        let whole = crate::render::part::read_part(&file(""))?;
         let reference = Reference {
-            film: Film::read_exr(&file(""))?,
+            film: whole.film,
             half_a: Film::read_exr(&file("-a"))?,
             half_b: Film::read_exr(&file("-b"))?,
         };
-        if reference.film.width == w && reference.film.height == h {
-            return Ok(reference);
+        let same_size = reference.film.width == w && reference.film.height == h;
+        match whole.metadata.get(CONTENT_KEY) {
+            Some(made_of) if *made_of != content => log(&format!(
+                "reference: {} was made of another scene of that name (content {made_of}, \
+                 the scene's {content})",
+                file("").display()
+            )),
+            None if same_size => {
+                log(&format!(
+                    "reference: {} does not record what scene it was made of (made before \
+                     stop 50): delete it if the scene has changed since",
+                    file("").display()
+                ));
+                return Ok(reference);
+            }
+            _ if same_size => return Ok(reference),
+            _ => {}
         }
     }
     log(&format!(
@@ -227,7 +249,10 @@ pub fn load_or_make(
     ));
     let reference = make(scene, embree, settings, false, log, &mut Stats::default())?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let meta = vec![("photondiff/reference".to_string(), tag.clone())];
+    let meta = vec![
+        ("photondiff/reference".to_string(), tag.clone()),
+        (CONTENT_KEY.to_string(), content),
+    ];
     reference.film.write_exr(&file(""), &meta)?;
     reference.half_a.write_exr(&file("-a"), &meta)?;
     reference.half_b.write_exr(&file("-b"), &meta)?;

@@ -17,6 +17,47 @@ pub fn fnv1a(mut hash: u64, bytes: &[u8]) -> u64 {
     hash
 }
 
+/// The content hash of a scene as loaded (or built in code, as the benchmarks' stress scenes
+/// are): xxh3 over its camera, lights, materials and transforms (their `Debug` text, whose
+/// numbers round-trip exactly) and its meshes' buffers. It names what a cached reference was
+/// made of ([`crate::reference::cache`]): a scene edited under the same name was measured
+/// against the old scene's reference, without a word.
+pub fn content_hash(scene: &super::Scene) -> u64 {
+    use xxhash_rust::xxh3::Xxh3;
+    let mut hash = Xxh3::new();
+    let mut text = |t: String| {
+        hash.update(&(t.len() as u64).to_le_bytes());
+        hash.update(t.as_bytes());
+    };
+    text(format!("{:?}", scene.camera));
+    text(format!("{:?}", scene.lights));
+    for m in &scene.meshes {
+        text(format!("{:?} {:?}", m.material, m.transform));
+    }
+    // Each buffer's numbers as little-endian bytes, a block at a time.
+    let mut block: Vec<u8> = Vec::with_capacity(1 << 16);
+    let mut words = |values: &mut dyn Iterator<Item = u32>| {
+        for v in values {
+            block.extend(v.to_le_bytes());
+            if block.len() == block.capacity() {
+                hash.update(&block);
+                block.clear();
+            }
+        }
+        hash.update(&block);
+        block.clear();
+        hash.update(&u64::MAX.to_le_bytes()); // the buffer's end
+    };
+    for m in &scene.meshes {
+        let mesh = &m.mesh;
+        words(&mut mesh.positions.iter().flatten().map(|c| c.to_bits()));
+        let normals = mesh.normals.iter().flatten().flatten();
+        words(&mut normals.map(|c| c.to_bits()));
+        words(&mut mesh.triangles.iter().flatten().copied());
+    }
+    hash.digest()
+}
+
 /// The mesh files a scene file names (`[[shapes]]` of type "mesh", then the `[meshes.NAME]`
 /// an instance places, by name), resolved against its folder, in the file's order, each with the
 /// field that names it (`shapes[2].file`, `meshes.NAME.file`) for messages.
