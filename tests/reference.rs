@@ -663,7 +663,7 @@ fn a_cached_reference_is_remade_for_an_edited_scene() {
         seed: 0,
     };
     let device = Device::new().unwrap();
-    let mut cached = |scene: &photondiff::scene::Scene| {
+    let cached = |scene: &photondiff::scene::Scene| {
         let embree = scene.build_embree(&device).unwrap();
         let mut log = Vec::new();
         let reference = load_or_make(
