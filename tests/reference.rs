@@ -699,3 +699,71 @@ fn a_cached_reference_is_remade_for_an_edited_scene() {
     );
     assert!((edited / first - 2.0).abs() < 1e-6, "{edited} {first}");
 }
+
+/// The reference warns that the pixels showing the glass sphere stay dark (light tracing
+/// cannot see through it: judged over the whole image, the render was blamed for that gap),
+/// counting them as the camera's centre rays find them, and `--masks` writes its regions for
+/// `compare --mask`: 1 in the region, 0 elsewhere, the floor's pixels all seen on the floor.
+#[test]
+fn the_reference_warns_of_pixels_it_cannot_see_and_writes_its_regions() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (ok, err) = reference_cli(
+        d,
+        &[
+            "-o",
+            "r.exr",
+            "--light-paths",
+            "1",
+            "--caustic-paths",
+            "1",
+            "--masks",
+            "--quiet",
+        ],
+    );
+    assert!(ok, "{err}");
+    let scene = canonical(64, 48);
+    let device = Device::new().unwrap();
+    let embree = scene.build_embree(&device).unwrap();
+    let (mut glass, mut floor) = (0, Vec::new());
+    for y in 0..48 {
+        for x in 0..64 {
+            let r = scene.camera.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
+            let hit = embree.intersect(&photondiff::embree::Ray::new(r.p, r.d));
+            match hit.map(|h| scene.material(h.geom_id)) {
+                Some(photondiff::scene::Material::Glass { .. }) => glass += 1,
+                Some(_) => floor.push(y * 64 + x),
+                None => {}
+            }
+        }
+    }
+    assert!(glass > 100, "{glass}");
+    assert_eq!(
+        err.lines().next().unwrap(),
+        format!(
+            "photondiff: warning: {}: {glass} of 3072 pixels show a mirror or glass surface, \
+             which light tracing cannot see through: they stay dark or partial however many \
+             paths are traced; judge renders against it over the diffuse pixels only \
+             (`photondiff reference --masks` writes them for `compare --mask`)",
+            d.join("scene.toml").display()
+        )
+    );
+    for region in ["floor", "caustic", "contour", "shadow"] {
+        let mask =
+            photondiff::render::film::Film::read_exr(&d.join(format!("r-{region}.exr"))).unwrap();
+        let inside: Vec<usize> = (0..mask.pixels.len())
+            .filter(|&i| mask.pixels[i] == DVec3::ONE)
+            .collect();
+        assert!(mask
+            .pixels
+            .iter()
+            .all(|&p| p == DVec3::ONE || p == DVec3::ZERO));
+        assert!(!inside.is_empty(), "{region}");
+        assert!(inside.iter().all(|i| floor.contains(i)), "{region}");
+        if region == "floor" {
+            // Seen on the floor over the whole pixel: inside the centre rays' floor, apart
+            // from the sphere's outline.
+            assert!(inside.len() < floor.len() && inside.len() > floor.len() * 9 / 10);
+        }
+    }
+}

@@ -169,6 +169,27 @@ pub fn warn_camera_in_glass(
     }
 }
 
+/// Warns, before light tracing, when pixels show mirrors or glass: the light tracer leaves
+/// them dark or partial, and a reference judged over the whole image blames the render for
+/// its own gap (a glass sphere of ior 1 read relRMSE 0.137 against the scene without it).
+pub fn warn_specular_pixels(
+    path: &Path,
+    scene: &photondiff::scene::Scene,
+    embree: &photondiff::embree::Scene,
+) {
+    let seen = photondiff::reference::light_tracer::pixels_seeing_specular(scene, embree);
+    if seen > 0 {
+        let all = u64::from(scene.camera.width) * u64::from(scene.camera.height);
+        eprintln!(
+            "photondiff: warning: {}: {seen} of {all} pixels show a mirror or glass surface, \
+             which light tracing cannot see through: they stay dark or partial however many \
+             paths are traced; judge renders against it over the diffuse pixels only \
+             (`photondiff reference --masks` writes them for `compare --mask`)",
+            path.display()
+        );
+    }
+}
+
 /// Prints what in the scene at `path` will make its image black or wrong without an error
 /// (`photondiff::scene::warnings`), one warning a line.
 pub fn warn_about_scene(path: &Path, scene: &photondiff::scene::Scene) {

@@ -62,6 +62,12 @@ pub struct ReferenceArgs {
     /// recorded them), and no direct-light rays are counted (none are traced).
     #[arg(long, value_name = "FILE")]
     stats_json: Option<PathBuf>,
+    /// Also write the regions it prints as masks for `compare --mask`, beside the output:
+    /// OUT-floor.exr (the pixels seen on diffuse surfaces over their whole area, the only ones
+    /// the reference holds whole), OUT-caustic.exr, OUT-contour.exr and OUT-shadow.exr (1 in
+    /// the region, 0 elsewhere).
+    #[arg(long)]
+    masks: bool,
     /// Write a trace for profiling to FILE: Chrome trace-event JSON with spans per stage, per
     /// tile of the direct light and per chunk of light paths; open it in Perfetto
     /// (ui.perfetto.dev) or chrome://tracing.
@@ -73,6 +79,9 @@ pub struct ReferenceArgs {
 }
 
 /// The path of a reference's half `s` (`a` or `b`): `OUT-s.exr` beside `OUT.exr`.
+/// The regions a reference's noise is printed for (and `--masks` writes), in order.
+const REGIONS: [&str; 4] = ["floor", "caustic", "contour", "shadow"];
+
 fn half_path(output: &Path, s: &str) -> PathBuf {
     PathBuf::from(format!("{}-{s}.exr", output.with_extension("").display()))
 }
@@ -305,6 +314,11 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     ];
     outputs.extend(args.stats_json.as_deref().map(|p| ("--stats-json", p)));
     outputs.extend(args.trace.as_deref().map(|p| ("--trace", p)));
+    let masks: Vec<PathBuf> = match args.masks {
+        true => REGIONS.map(|r| half_path(&args.output, r)).to_vec(),
+        false => Vec::new(),
+    };
+    outputs.extend(masks.iter().map(|p| ("--masks", p.as_path())));
     let halves: Vec<PathBuf> = args
         .merge
         .iter()
@@ -379,6 +393,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         seed: args.seed,
     };
     super::warn_camera_in_glass(&args.scene, &scene, &embree);
+    super::warn_specular_pixels(&args.scene, &scene, &embree);
     let start = std::time::Instant::now();
     let reference = pool.install(|| {
         let mut log = |m: &str| {
@@ -438,20 +453,34 @@ fn write(
         reference.half_b.write_exr(&half("b"), meta)
     })?;
     stats.reference_noise = reference.relative_noise(&reference.film.lit_pixels());
-    stats.reference_regions = [
-        ("floor", &regions.diffuse),
-        ("caustic", &regions.caustic),
-        ("contour", &regions.contour),
-        ("shadow", &regions.shadow),
-    ]
-    .into_iter()
-    .map(|(name, pixels)| RegionNoise {
-        name: name.to_string(),
-        pixels: pixels.len() as u64,
-        // An empty region has no noise to tell (its mean is 0).
-        relative_noise: (!pixels.is_empty()).then(|| reference.relative_noise(pixels)),
-    })
-    .collect();
+    let sets = [
+        &regions.diffuse,
+        &regions.caustic,
+        &regions.contour,
+        &regions.shadow,
+    ];
+    if args.masks {
+        stats.time("write images", || -> Result<(), String> {
+            for (name, pixels) in REGIONS.iter().zip(sets) {
+                let mut mask = Film::new(reference.film.width, reference.film.height);
+                for &i in pixels {
+                    mask.pixels[i] = glam::DVec3::ONE;
+                }
+                mask.write_exr(&half(name), meta)?;
+            }
+            Ok(())
+        })?;
+    }
+    stats.reference_regions = REGIONS
+        .iter()
+        .zip(sets)
+        .map(|(name, pixels)| RegionNoise {
+            name: name.to_string(),
+            pixels: pixels.len() as u64,
+            // An empty region has no noise to tell (its mean is 0).
+            relative_noise: (!pixels.is_empty()).then(|| reference.relative_noise(pixels)),
+        })
+        .collect();
     match made.seconds {
         Some(s) => {
             println!("reference made in {s:.1} s; relative noise per pixel (from its halves):")
@@ -471,6 +500,13 @@ fn write(
         half("a").display(),
         half("b").display()
     );
+    if args.masks {
+        let names: Vec<String> = REGIONS
+            .iter()
+            .map(|r| half(r).display().to_string())
+            .collect();
+        println!("wrote the regions' masks {}", names.join(", "));
+    }
     stats.memory.record_peak();
     super::write_trace_and_stats(args.trace.as_deref(), args.stats_json.as_deref(), &stats)?;
     super::print_memory(&mut stats.memory, args.quiet);

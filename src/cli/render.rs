@@ -422,6 +422,7 @@ fn light_trace(
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
     stats.threads = pool.current_num_threads();
     super::warn_camera_in_glass(&args.scene, scene, embree);
+    super::warn_specular_pixels(&args.scene, scene, embree);
     let tracer = LightTracer::new(scene, embree, &lt_options);
     let (paths, _) = tracer.planned_paths();
     let bar = photondiff::util::progress::bar(progress, paths, "light");

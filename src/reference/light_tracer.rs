@@ -372,6 +372,27 @@ impl<'a> LightTracer<'a> {
     }
 }
 
+/// The pixels whose centre ray first meets a mirror or glass surface: light tracing connects
+/// only diffuse surfaces to the camera, so it leaves them dark (or holds only the part of the
+/// pixel that is diffuse), however many paths it traces.
+pub fn pixels_seeing_specular(scene: &Scene, embree: &embree::Scene) -> u64 {
+    use rayon::prelude::*;
+    let c = &scene.camera;
+    (0..c.height)
+        .into_par_iter()
+        .map(|y| {
+            (0..c.width)
+                .filter(|&x| {
+                    let r = c.ray(x as f64 + 0.5, y as f64 + 0.5, 1.0);
+                    embree
+                        .intersect(&Ray::new(r.p, r.d))
+                        .is_some_and(|hit| scene.material(hit.geom_id).is_specular())
+                })
+                .count() as u64
+        })
+        .sum()
+}
+
 /// The name of the glass mesh the camera is inside, if any: light tracing reaches the camera
 /// only along straight segments through open space, so such a camera sees nothing of it (its
 /// image is black without a word). Along each axis and the view direction, the first glass
