@@ -95,6 +95,34 @@ fn camera_vectors_hold_three_numbers() {
     }
 }
 
+/// A scene has one camera, a table: `[[camera]]` was refused as "expected an array of three
+/// numbers [x, y, z]", about no vector the user wrote.
+#[test]
+fn a_camera_is_one_table() {
+    let e = error_of(
+        &format!("{}{REST}", CAMERA.replace("[camera]", "[[camera]]")),
+        &[],
+    );
+    assert!(
+        e.starts_with("TOML parse error at line 2, column 1")
+            && e.ends_with(
+                "a scene has one camera: write [camera], not [[camera]] (an array of tables)"
+            ),
+        "{e}"
+    );
+    let e = error_of(
+        &format!(
+            "camera = 5
+{REST}"
+        ),
+        &[],
+    );
+    assert!(
+        e.ends_with("invalid type: integer `5`, expected one [camera] table"),
+        "{e}"
+    );
+}
+
 #[test]
 fn syntax_errors_name_the_line() {
     let e = error_of(&format!("{CAMERA}{REST}\n[[shapes]\n"), &[]);

@@ -32,6 +32,7 @@ pub struct SceneError {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SceneFile {
+    #[serde(deserialize_with = "one_table")]
     camera: CameraDesc,
     #[serde(default)]
     materials: BTreeMap<String, MaterialDesc>,
@@ -70,6 +71,27 @@ impl SceneFile {
             .map(|(field, file)| (field, base.join(file)))
             .collect()
     }
+}
+
+/// `[camera]` as a table only: `[[camera]]` (an array of tables) was read field by field as
+/// a sequence, and refused as "expected an array of three numbers [x, y, z]".
+fn one_table<'de, D: serde::Deserializer<'de>>(d: D) -> Result<CameraDesc, D::Error> {
+    struct Table;
+    impl<'de> serde::de::Visitor<'de> for Table {
+        type Value = CameraDesc;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("one [camera] table")
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<CameraDesc, A::Error> {
+            CameraDesc::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+        }
+        fn visit_seq<A: serde::de::SeqAccess<'de>>(self, _: A) -> Result<CameraDesc, A::Error> {
+            Err(serde::de::Error::custom(
+                "a scene has one camera: write [camera], not [[camera]] (an array of tables)",
+            ))
+        }
+    }
+    d.deserialize_map(Table)
 }
 
 #[derive(Deserialize)]
