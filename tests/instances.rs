@@ -191,6 +191,31 @@ fn memory_stays_flat_in_the_number_of_instances() {
     );
 }
 
+/// Two `[meshes]` names for one file (spelt two ways) read it once and hold it once: it was
+/// read, and held, once per name.
+#[test]
+fn two_names_for_one_mesh_file_hold_it_once() {
+    let dir = tempfile::tempdir().unwrap();
+    write_ball(dir.path());
+    std::fs::create_dir(dir.path().join("sub")).unwrap();
+    let rest = "[meshes.a]\nfile = \"ball.ply\"\n[meshes.b]\nfile = \"sub/../ball.ply\"\n\
+        [[instances]]\nmesh = \"a\"\nmaterial = \"glass\"\ntranslate = [-1.0, 1.0, 0.0]\n\
+        [[instances]]\nmesh = \"b\"\nmaterial = \"glass\"\ntranslate = [1.0, 1.0, 0.0]\n";
+    let path = scene(dir.path(), "twice.toml", rest);
+    let loaded = photondiff::scene::file::load_scene(&path).unwrap();
+    let balls: Vec<_> = loaded
+        .meshes
+        .iter()
+        .filter(|m| m.transform.is_some())
+        .collect();
+    assert_eq!(balls.len(), 2);
+    assert!(std::sync::Arc::ptr_eq(&balls[0].mesh, &balls[1].mesh));
+    assert_eq!(
+        loaded.mesh_bytes(),
+        loaded.meshes[0].mesh.bytes() + balls[0].mesh.bytes()
+    );
+}
+
 fn error(scene: &Path) -> String {
     let out = Command::new(EXE)
         .arg("render")

@@ -176,14 +176,21 @@ impl<'a> MeshBytes<'a> {
         });
         let instanced: std::collections::BTreeSet<&str> =
             file.instances.iter().map(|i| i.mesh.as_str()).collect();
-        let instanced = instanced
+        // Each instanced file once, as `build` reads it.
+        let instanced: std::collections::BTreeSet<PathBuf> = instanced
             .into_iter()
-            .filter_map(|name| file.meshes.get(name).map(|m| &m.file));
+            .filter_map(|name| file.meshes.get(name))
+            .map(|m| {
+                let path = base.join(&m.file);
+                std::fs::canonicalize(&path).unwrap_or(path)
+            })
+            .collect();
         // A file that cannot be read counts nothing here; its loader says why.
-        let size = |f: &PathBuf| std::fs::metadata(base.join(f)).map_or(0, |m| m.len());
+        let size = |f: &Path| std::fs::metadata(f).map_or(0, |m| m.len());
+        let shapes: u64 = shapes.map(|f| size(&base.join(f))).sum();
         MeshBytes {
             progress,
-            total: shapes.chain(instanced).map(size).sum(),
+            total: shapes + instanced.iter().map(|f| size(f)).sum::<u64>(),
             done: std::cell::Cell::new(0),
         }
     }
@@ -468,7 +475,8 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
 
     // Each instanced mesh is loaded once, by its first instance, and shared by the others;
     // its load report goes with that first instance only, so that counts are not repeated.
-    let mut loaded: BTreeMap<&str, (Arc<crate::embree::TriangleMesh>, [DVec3; 2])> =
+    // Keyed by the file itself: two `[meshes]` names for one file read it (and held it) twice.
+    let mut loaded: BTreeMap<PathBuf, (Arc<crate::embree::TriangleMesh>, [DVec3; 2])> =
         BTreeMap::new();
     for (i, inst) in file.instances.iter().enumerate() {
         let field = format!("instances[{i}]");
@@ -487,10 +495,11 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
             ));
         };
         let mut report = MeshReport::default();
-        let (mesh, bounds) = match loaded.get(inst.mesh.as_str()) {
+        let path = base.join(&desc.file);
+        let key = std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone());
+        let (mesh, bounds) = match loaded.get(&key) {
             Some((mesh, bounds)) => (mesh.clone(), *bounds),
             None => {
-                let path = base.join(&desc.file);
                 let mut m = mesh_bytes
                     .load(&path)
                     .map_err(|e| format!("meshes.{}.file: {e}", inst.mesh))?;
@@ -498,7 +507,7 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
                 m.mesh.reserve_padding();
                 let mesh = Arc::new(m.mesh);
                 let bounds = vertex_bounds(&mesh);
-                loaded.insert(&inst.mesh, (mesh.clone(), bounds));
+                loaded.insert(key, (mesh.clone(), bounds));
                 (mesh, bounds)
             }
         };
