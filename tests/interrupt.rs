@@ -163,8 +163,16 @@ fn ctrl_c_ends_light_tracing_with_the_paths_traced() {
             .unwrap();
     let traced = json["light_paths"].as_u64().unwrap();
     assert!(traced > 0 && traced < asked, "{json}");
+    // The scene's glass sphere is in view: light tracing warns first that it cannot see
+    // through it.
+    let (warning, rest) = stderr.split_once("\n").unwrap();
+    assert!(
+        warning.starts_with("photondiff: warning: ")
+            && warning.contains(" pixels show a mirror or glass surface, which light tracing"),
+        "{stderr}"
+    );
     assert_eq!(
-        stderr.trim(),
+        rest.trim(),
         format!(
             "photondiff: interrupted: finishing the light paths under way, then writing the image \
              of the paths traced (Ctrl-C again to exit at once)\n\

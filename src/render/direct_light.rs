@@ -110,7 +110,6 @@ impl DirectLight<'_> {
         };
         let grid = self.footprint_grid(v);
         let share = 1.0 / (grid.n * grid.n) as f64;
-        let x = v.hit.position;
         for light in &self.scene.lights {
             match *light {
                 Light::Point { position, .. } | Light::Spot { position, .. } => {
@@ -132,18 +131,24 @@ impl DirectLight<'_> {
                     let cross = edge_u.cross(edge_v);
                     let area = cross.length();
                     let normal = cross / area;
-                    let s = self.area_strata.max(1);
+                    // The light's strata take turns over the footprint's points (stratum
+                    // (i, j) from point (i mod n, j mod n)), at least one stratum a point: from
+                    // the hit alone, a pass's jitter moved a whole pixel's area light off its
+                    // centre, and 2 passes were further from the reference than 1 (relRMSE
+                    // 0.022 against 0.006 on a floor under a quad light at 96 x 72).
+                    let s = self.area_strata.max(grid.n).max(1);
                     let per_sample = area / (s * s) as f64;
-                    let origin = x + ng * self.epsilon;
                     for i in 0..s {
                         for j in 0..s {
                             let a = (i as f64 + rng.uniform()) / s as f64;
                             let b = (j as f64 + rng.uniform()) / s as f64;
                             let y = corner + edge_u * a + edge_v * b;
+                            let from = grid.point(i % grid.n + grid.n * (j % grid.n));
+                            let origin = from + ng * self.epsilon;
                             let cos_light = (origin - y).normalize_or_zero().dot(normal);
                             if cos_light > 0.0 {
                                 // Stop short of the light's own quad.
-                                push(x, y, radiance * (cos_light * per_sample), 1.0 - 1e-4);
+                                push(from, y, radiance * (cos_light * per_sample), 1.0 - 1e-4);
                             }
                         }
                     }
