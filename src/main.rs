@@ -99,7 +99,11 @@ fn main() -> ExitCode {
         Err(message) => {
             eprintln!("photondiff: error: {message}");
             cli::remove_created_folders();
-            ExitCode::FAILURE
+            // Stopped by Ctrl-C before anything could be written: 128 + SIGINT all the same.
+            match photondiff::util::interrupt::requested() {
+                true => ExitCode::from(130),
+                false => ExitCode::FAILURE,
+            }
         }
     }
 }

@@ -1,6 +1,7 @@
-//! Ctrl-C during a progressive render: the first stops the passes after the one under way and
-//! writes their mean (exit status 130, the statistics and the EXR saying why it stopped); a
-//! second exits at once without writing. `lighttrace` stops after the paths under way and writes
+//! Ctrl-C during a progressive render: the first drops the pass under way and writes the mean
+//! of the passes done (exit status 130, the statistics and the EXR saying why it stopped), or,
+//! during the first pass, exits within seconds writing nothing; a second exits at once without
+//! writing. `lighttrace` stops after the paths under way and writes
 //! their image. The real signal, sent by `kill` to the real binary.
 
 use photondiff::render::film::Film;
@@ -103,7 +104,7 @@ fn the_first_ctrl_c_keeps_the_passes_done() {
     assert_eq!(
         stderr.trim(),
         format!(
-            "photondiff: interrupted: finishing the pass under way, then writing the mean of the \
+            "photondiff: interrupted: dropping the pass under way, then writing the mean of the \
              passes done (Ctrl-C again to exit at once)\n\
              photondiff: interrupted: the image is the mean of the {passes} passes done"
         )
@@ -133,21 +134,58 @@ fn a_termination_signal_keeps_the_passes_done() {
     assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
 }
 
+/// Passes of 20 million camera rays (seconds each, tens on a busy machine).
+fn large() -> String {
+    let large = SCENE.replace("width = 32\nheight = 24", "width = 640\nheight = 480");
+    assert_ne!(large, SCENE);
+    large
+}
+
 #[test]
 fn a_second_ctrl_c_exits_at_once_without_an_image() {
     let dir = tempfile::tempdir().unwrap();
-    // Passes of 20 million camera rays (seconds each), so that both signals come while the
-    // first pass is under way and the second must end it.
-    let large = SCENE.replace("width = 32\nheight = 24", "width = 640\nheight = 480");
-    assert_ne!(large, SCENE);
-    let (status, stderr) = run_and_interrupt(dir.path(), &large, &["--view-grid", "8"], 2);
+    // Both signals come while the first pass is under way: the second ends the run at once,
+    // unless the first has already cut the pass short and ended it (50 ms apart: either way
+    // nothing is written).
+    let (status, stderr) = run_and_interrupt(dir.path(), &large(), &["--view-grid", "8"], 2);
     assert_eq!(status.code(), Some(130), "{stderr}");
     assert!(
-        stderr.ends_with("photondiff: interrupted again: exiting without writing the image\n"),
+        stderr.ends_with("photondiff: interrupted again: exiting without writing the image\n")
+            || stderr.ends_with(
+                "photondiff: error: interrupted during the first pass: no pass \
+                 was finished, so no image was written\n"
+            ),
         "{stderr}"
     );
     assert!(!dir.path().join("img.exr").exists());
     assert!(!dir.path().join("stats.json").exists());
+}
+
+/// A Ctrl-C during a pass cuts it short within seconds: the photon tracing and the tiles check
+/// it. It waited for the pass to end (a pass can take minutes: a batch system's grace period
+/// ran out), and during the last pass it was swallowed and the run exited 0 a minute later.
+#[test]
+fn a_ctrl_c_cuts_the_pass_under_way_short() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra = ["--view-grid", "8", "--passes", "1"];
+    let mut child = start(dir.path(), &large(), &extra);
+    std::thread::sleep(Duration::from_millis(1500));
+    let sent = std::time::Instant::now();
+    interrupt(&child, "INT");
+    let status = wait(&mut child);
+    let took = sent.elapsed();
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert!(
+        stderr.ends_with(
+            "photondiff: error: interrupted during the first pass: no pass was finished, so no \
+             image was written\n"
+        ),
+        "{stderr}"
+    );
+    assert!(took < Duration::from_secs(10), "{took:?}");
+    assert!(!dir.path().join("img.exr").exists());
 }
 
 #[test]

@@ -427,6 +427,19 @@ fn pass_options_are_validated_with_one_line_errors() {
         assert_eq!(out.status.code(), Some(1), "{option} {value}: {stderr}");
         assert_eq!(stderr.trim(), format!("photondiff: error: {message}"));
     }
+    // Far more threads than cores is said to be slower (1,024 on 2 cores traced photons 49
+    // times slower without a word); the bad --passes after it stops the run at once.
+    let cores = std::thread::available_parallelism().unwrap().get();
+    let many = (4 * cores + 1).to_string();
+    let out = photondiff(&["render", "--threads", &many, "--passes", "0", scene]);
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        format!(
+            "photondiff: warning: --threads {many}: this machine has {cores} cores; more threads \
+             than cores take turns and run slower, not faster (0 = one per core)\n\
+             photondiff: error: --passes must be a whole number of at least 1, got 0\n"
+        )
+    );
     let out = photondiff(&[
         "render",
         "--quiet",

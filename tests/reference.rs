@@ -240,7 +240,10 @@ fn references_made_in_parts_merge_into_their_mean() {
         assert!(ok, "{err}");
         // Rounded up to an even number of chunks of 65,536 (4 and 2).
         let told = err.contains("reference: light tracing 262144 + 131072 caustic paths");
-        assert_eq!((told, err.is_empty()), (seed == "2", seed == "1"), "{err}");
+        // Quiet, only the warning that the sphere's pixels stay dark.
+        let warned_only = err.lines().count() == 1
+            && err.contains(" pixels show a mirror or glass surface, which light tracing");
+        assert_eq!((told, warned_only), (seed == "2", seed == "1"), "{err}");
     }
     let (ok, err) = reference_cli(
         d,

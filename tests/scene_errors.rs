@@ -669,7 +669,7 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
     child.wait().unwrap();
     let expected = format!(
         "photondiff: warning: {}: 2000000000 photons may need up to 500.0 GB while their maps \
-         are built (about 250 bytes a photon); this machine has ",
+         are built (about 250 bytes a photon); this process may use ",
         scene.display()
     );
     assert!(line.starts_with(&expected), "{line}");

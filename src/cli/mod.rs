@@ -49,12 +49,21 @@ pub fn load_scene(
 /// operating system failing thread after thread.
 pub const MAX_THREADS: usize = 1024;
 
-/// Checks `--threads` (0 = one per core).
+/// Checks `--threads` (0 = one per core), warning when it asks for far more threads than
+/// the machine has cores: they only take turns (1,024 on 2 cores traced photons 49 times
+/// slower, without a word).
 pub fn check_threads(threads: usize) -> Result<usize, String> {
     if threads > MAX_THREADS {
         return Err(format!(
             "--threads must be at most {MAX_THREADS} (0 = one per core), got {threads}"
         ));
+    }
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    if threads > 4 * cores {
+        eprintln!(
+            "photondiff: warning: --threads {threads}: this machine has {cores} cores; more \
+             threads than cores take turns and run slower, not faster (0 = one per core)"
+        );
     }
     Ok(threads)
 }
@@ -141,8 +150,8 @@ pub fn warn_photon_memory(scene: &Path, photons: usize) {
             let gb = |b: u64| b as f64 / 1e9;
             eprintln!(
                 "photondiff: warning: {}: {photons} photons may need up to {:.1} GB while their \
-                 maps are built (about {PEAK_BYTES_PER_PHOTON} bytes a photon); this machine has \
-                 {:.1} GB",
+                 maps are built (about {PEAK_BYTES_PER_PHOTON} bytes a photon); this process may \
+                 use {:.1} GB",
                 scene.display(),
                 gb(need),
                 gb(total)

@@ -212,7 +212,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         stop_on_ctrl_c(if kind == EstimatorKind::Lighttrace {
             "finishing the light paths under way, then writing the image of the paths traced"
         } else {
-            "finishing the pass under way, then writing the mean of the passes done"
+            "dropping the pass under way, then writing the mean of the passes done"
         });
     }
     let (exr, png) = output_paths(args);

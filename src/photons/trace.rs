@@ -271,6 +271,10 @@ impl<'a> PhotonTracer<'a> {
         // emission would bounce to the cap and store nothing (minutes for a black image).
         if target > 0 && !emitter.is_empty() && self.scene.has_diffuse_surface() {
             while counts.emitted < max_emissions {
+                // A stop requested: the map is left as it is and its pass dropped.
+                if crate::util::interrupt::cut_short() {
+                    break;
+                }
                 let start = counts.emitted;
                 let end = (start + BATCH).min(max_emissions);
                 let chunks: Vec<u64> = (start..end).step_by(CHUNK as usize).collect();

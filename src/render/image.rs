@@ -169,6 +169,21 @@ struct TileResult {
     gathers: GatherCounts,
 }
 
+impl TileResult {
+    /// A tile not rendered (cut short by a stop).
+    fn black(tile: Tile) -> Self {
+        let n = ((tile.x1 - tile.x0) * (tile.y1 - tile.y0)) as usize;
+        TileResult {
+            pixels: vec![DVec3::ZERO; n],
+            reach: vec![false; n],
+            rays: RayCounts::default(),
+            cut_at_max_depth: 0,
+            edge_pixels: 0,
+            gathers: GatherCounts::default(),
+        }
+    }
+}
+
 /// A rectangle of pixels `[x0, x1) x [y0, y1)`.
 #[derive(Debug, Clone, Copy)]
 struct Tile {
@@ -241,7 +256,11 @@ pub fn render_image(
                     let _span = crate::util::trace::span_with("tile", || {
                         serde_json::json!({"x0": tile.x0, "y0": tile.y0, "x1": tile.x1, "y1": tile.y1})
                     });
-                    let r = renderer.render_tile(*tile);
+                    // A stop requested: the tile is left black and the pass dropped.
+                    let r = match crate::util::interrupt::cut_short() {
+                        true => TileResult::black(*tile),
+                        false => renderer.render_tile(*tile),
+                    };
                     progress.inc(1);
                     r
                 })

@@ -101,6 +101,10 @@ pub fn jitter(pass: u64) -> [f64; 2] {
     [u, v]
 }
 
+/// The error of a run stopped during its first pass: no pass is whole, so there is no image.
+pub const INTERRUPTED_IN_FIRST_PASS: &str =
+    "interrupted during the first pass: no pass was finished, so no image was written";
+
 /// When a progressive render stops: after `passes` passes, before a pass that would end after
 /// `time_budget`, once the noise estimate falls below `target_noise`, or (with `on_interrupt`)
 /// after the pass under way when [`crate::util::interrupt`] asks it to, whichever comes first.
@@ -400,8 +404,18 @@ impl Progressive<'_> {
             let span = trace::span_with("pass", || serde_json::json!({ "pass": done }));
             let mut pass_stats = Stats::default();
             let pass_maps = if done == 0 { maps.take() } else { None };
-            sum.add(&run.render_pass_with(done, pass_maps, progress && single, &mut pass_stats)?);
+            let image =
+                run.render_pass_with(done, pass_maps, progress && single, &mut pass_stats)?;
             drop(span);
+            // A stop cut the pass short: it is dropped, and the run ends with the passes done.
+            if stop.on_interrupt && crate::util::interrupt::take_cut() {
+                if done == 0 {
+                    return Err(INTERRUPTED_IN_FIRST_PASS.to_string());
+                }
+                crate::util::interrupt::honour();
+                break StopReason::Interrupted;
+            }
+            sum.add(&image);
             trace_pass(&pass_stats);
             stats.absorb_pass(pass_stats);
             noise = NoiseEstimate::of(&sum);

@@ -634,7 +634,7 @@ fn check_sphere_memory(shapes: &[ShapeDesc], total: Option<u64>) -> Result<(), S
     if bytes > total {
         return Err(format!(
             "the spheres' triangles need {:.1} GB of mesh buffers (segments up to {largest}: \
-             {} triangles a sphere), more than this machine's {:.1} GB: use fewer segments",
+             {} triangles a sphere), more than the {:.1} GB this process may use: use fewer segments",
             bytes as f64 / 1e9,
             shapes::sphere_triangles(largest),
             total as f64 / 1e9
@@ -688,7 +688,7 @@ mod tests {
         assert_eq!(
             check_sphere_memory(&four, Some(4_000_000_000)).unwrap_err(),
             "the spheres' triangles need 6.4 GB of mesh buffers (segments up to 8192: 67092480 \
-             triangles a sphere), more than this machine's 4.0 GB: use fewer segments"
+             triangles a sphere), more than the 4.0 GB this process may use: use fewer segments"
         );
         assert!(check_sphere_memory(&four, Some(24_000_000_000)).is_ok());
         assert!(check_sphere_memory(&four, None).is_ok());

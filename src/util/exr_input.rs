@@ -60,8 +60,8 @@ pub fn check_size(path: &Path) -> Result<(), String> {
         if let Some(total) = super::memory::total_bytes() {
             if needed > total {
                 return Err(format!(
-                    "{}: {w} x {h} pixels would take {:.1} GB to read, more than this \
-                     machine's {:.1} GB of memory",
+                    "{}: {w} x {h} pixels would take {:.1} GB to read, more than the \
+                     {:.1} GB this process may use",
                     path.display(),
                     needed as f64 / 1e9,
                     total as f64 / 1e9

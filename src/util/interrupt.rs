@@ -1,6 +1,8 @@
 //! A request to end a long run early: Ctrl-C at the command line. A progressive render checks
 //! it between passes and stops with the passes it has, so that minutes of passes are not lost
-//! to one keystroke; the command line installs the handler that makes the request (a second
+//! to one keystroke; within a pass, photon tracing and the tiles check it too ([`cut_short`])
+//! and the pass they cut is dropped, so that a stop takes seconds, not what is left of a pass
+//! (minutes for a large one: a batch system's grace period ran out); the command line installs the handler that makes the request (a second
 //! Ctrl-C there exits at once). The library never installs one: a render embedded elsewhere
 //! stops only by its rules.
 
@@ -17,6 +19,24 @@ pub fn request() -> bool {
 /// Whether a stop has been requested.
 pub fn requested() -> bool {
     REQUESTED.load(Ordering::SeqCst)
+}
+
+/// Whether work under way was cut short because of the request since [`take_cut`] last asked.
+static CUT: AtomicBool = AtomicBool::new(false);
+
+/// Whether work under way (a batch of photons, a tile) should be cut short: a stop was
+/// requested. Records the cut, so that the run drops what it cut ([`take_cut`]).
+pub fn cut_short() -> bool {
+    let requested = requested();
+    if requested {
+        CUT.store(true, Ordering::SeqCst);
+    }
+    requested
+}
+
+/// Whether work was cut short since the last call (and forgets it).
+pub fn take_cut() -> bool {
+    CUT.swap(false, Ordering::SeqCst)
 }
 
 /// Whether a run stopped early because of the request (a request that came too late to cut

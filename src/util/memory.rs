@@ -10,13 +10,45 @@ pub fn status_bytes(field: &str) -> Option<u64> {
         .map(|kb| kb * 1024)
 }
 
-/// The machine's memory (`MemTotal` of `/proc/meminfo`), `None` where unknown.
+/// The memory this process may use: the machine's (`MemTotal` of `/proc/meminfo`), or less
+/// where its address-space limit (`ulimit -v`, `/proc/self/limits`) or its control group's
+/// `memory.max` (a batch job's allocation) says so; `None` where none is known. The checks
+/// before big allocations read it: under a 6 GB limit on a 25 GB machine, a render went ahead
+/// and aborted minutes later ("memory allocation of 5368709120 bytes failed").
 pub fn total_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    text.lines()
-        .find_map(|l| l.strip_prefix("MemTotal:"))
-        .and_then(|v| v.trim().strip_suffix("kB")?.trim().parse::<u64>().ok())
-        .map(|kb| kb * 1024)
+    let machine = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|text| {
+            text.lines()
+                .find_map(|l| l.strip_prefix("MemTotal:"))
+                .and_then(|v| v.trim().strip_suffix("kB")?.trim().parse::<u64>().ok())
+                .map(|kb| kb * 1024)
+        });
+    [machine, address_space_limit(), cgroup_limit()]
+        .into_iter()
+        .flatten()
+        .min()
+}
+
+/// The soft address-space limit (`Max address space` of `/proc/self/limits`), `None` when
+/// unlimited or unknown.
+fn address_space_limit() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/self/limits").ok()?;
+    let line = text.lines().find(|l| l.starts_with("Max address space"))?;
+    line["Max address space".len()..]
+        .split_whitespace()
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// The `memory.max` of this process's control group (cgroup v2), `None` when `max` or
+/// unknown.
+fn cgroup_limit() -> Option<u64> {
+    let own = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    let path = own.lines().find_map(|l| l.strip_prefix("0::"))?;
+    let max = std::fs::read_to_string(format!("/sys/fs/cgroup{}/memory.max", path.trim())).ok()?;
+    max.trim().parse().ok()
 }
 
 /// The most resident memory the process has held so far (`VmHWM`), 0 where unknown.
@@ -32,6 +64,28 @@ pub fn resident_bytes() -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The limit read is the process's own: a child under `ulimit -v` (in KiB) reports it.
+    #[test]
+    fn an_address_space_limit_is_the_memory_a_process_may_use() {
+        let out = std::process::Command::new("sh")
+            .args([
+                "-c",
+                "ulimit -v 3000000; grep 'Max address space' /proc/self/limits",
+            ])
+            .output()
+            .unwrap();
+        let line = String::from_utf8(out.stdout).unwrap();
+        let limit: u64 = line["Max address space".len()..]
+            .split_whitespace()
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap();
+        assert_eq!(limit, 3_000_000 * 1024, "{line}");
+        // This process: unlimited here, so the machine's memory or a control group's.
+        assert!(address_space_limit().is_none_or(|l| l >= total_bytes().unwrap()));
+    }
 
     #[test]
     fn the_machine_has_more_memory_than_the_process_holds() {
