@@ -456,6 +456,40 @@ fn pass_options_are_validated_with_one_line_errors() {
     );
 }
 
+/// Without a terminal, the stages within each pass write their progress lines too: a pass can
+/// take minutes, and the default's 2 passes wrote nothing until the first ended (110 s in
+/// silence). The lines' interval is shortened from 15 s for the test.
+#[test]
+fn without_a_terminal_the_stages_of_every_pass_write_their_progress() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let text = common::SMALL_SCENE.replace("width = 32\nheight = 24", "width = 640\nheight = 480");
+    assert_ne!(text, common::SMALL_SCENE);
+    std::fs::write(&scene, text).unwrap();
+    let exr = dir.path().join("img.exr");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .env("PHOTONDIFF_PROGRESS_INTERVAL", "0.05")
+        .args(["render", "--passes", "2", "--view-grid", "4", "-o"])
+        .args([&exr, &scene])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let first = stderr
+        .find("passes: 1 of 2 done")
+        .expect("the first pass's line");
+    let second = stderr
+        .find("passes: 2 of 2 done")
+        .expect("the second pass's line");
+    let render_line = |from: usize, to: usize| {
+        stderr[from..to]
+            .lines()
+            .any(|l| l.starts_with("render ") && l.contains("% 00:00:") && l.contains(" eta "))
+    };
+    assert!(render_line(0, first), "{stderr}");
+    assert!(render_line(first, second), "{stderr}");
+}
+
 #[test]
 fn without_a_terminal_each_pass_writes_a_line_and_quiet_writes_none() {
     let dir = tempfile::tempdir().unwrap();

@@ -404,8 +404,11 @@ impl Progressive<'_> {
             let span = trace::span_with("pass", || serde_json::json!({ "pass": done }));
             let mut pass_stats = Stats::default();
             let pass_maps = if done == 0 { maps.take() } else { None };
-            let image =
-                run.render_pass_with(done, pass_maps, progress && single, &mut pass_stats)?;
+            // The stages' own progress too where it is written as lines (a batch job's log):
+            // a pass can take minutes, and the default's 2 passes wrote nothing until the
+            // first ended (110 s in silence). On a terminal the pass bar stands alone.
+            let inner = progress && (single || !crate::util::progress::draws_bars());
+            let image = run.render_pass_with(done, pass_maps, inner, &mut pass_stats)?;
             drop(span);
             // A stop cut the pass short: it is dropped, and the run ends with the passes done.
             if stop.on_interrupt && crate::util::interrupt::take_cut() {

@@ -10,6 +10,16 @@ use std::time::{Duration, Instant};
 /// How often a stage's progress is written as a line where no bar can be drawn.
 pub const LOG_INTERVAL: Duration = Duration::from_secs(15);
 
+/// [`LOG_INTERVAL`], or the seconds `PHOTONDIFF_PROGRESS_INTERVAL` gives (a positive number;
+/// the tests write lines without waiting 15 s for them).
+fn log_interval() -> Duration {
+    std::env::var("PHOTONDIFF_PROGRESS_INTERVAL")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+        .filter(|s| s.is_finite() && *s > 0.0 && *s < 1e6)
+        .map_or(LOG_INTERVAL, Duration::from_secs_f64)
+}
+
 /// Whether progress is drawn as bars (standard error is a terminal) rather than written as
 /// lines.
 pub fn draws_bars() -> bool {
@@ -29,7 +39,7 @@ pub fn bar(visible: bool, total: u64, stage: &str) -> ProgressBar {
             "{prefix:>8} [{bar:40}] {percent:>3}% {elapsed_precise} eta {eta}",
         )
     } else {
-        let lines = Lines::new(Box::new(std::io::stderr()), LOG_INTERVAL);
+        let lines = Lines::new(Box::new(std::io::stderr()), log_interval());
         let lines = ProgressDrawTarget::term_like_with_hz(Box::new(lines), 1);
         let bar = ProgressBar::with_draw_target(Some(total), lines);
         // Redrawn every second whether or not the stage moves, so that a stage that stores
