@@ -276,7 +276,7 @@ fn unrenderable_eyes_lights_and_intensities_are_refused() {
         ),
         (
             ("width = 32\nheight = 24", "width = 32768\nheight = 32768"),
-            "camera: width x height must be at most 134217728 pixels (about 50 bytes each in memory), got 32768 x 32768 = 1073741824",
+            "camera: width x height must be at most 134217728 pixels (about 150 bytes each in memory), got 32768 x 32768 = 1073741824",
         ),
         (
             ("intensity = [10.0, 10.0, 10.0]", "intensity = [10.0, 1e300, 10.0]"),
@@ -483,6 +483,37 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
     assert_eq!(std::fs::read_to_string(&scene).unwrap(), text);
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
     assert_eq!(names.len(), 1, "only the scene: {names:?}");
+}
+
+/// An image whose pixels cannot fit in the memory the process may use is refused before
+/// anything is allocated: at the 2^27-pixel limit a render under a 6 GB limit aborted.
+#[test]
+fn an_image_beyond_the_process_memory_is_refused_at_once() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let camera = CAMERA
+        .replace("width = 32", "width = 11585")
+        .replace("height = 24", "height = 11585");
+    std::fs::write(&scene, format!("{camera}{REST}")).unwrap();
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 3000000; exec '{exe}' render '{}' -o '{}' --estimator direct",
+            scene.display(),
+            dir.path().join("x.exr").display()
+        ))
+        .output()
+        .unwrap();
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        format!(
+            "photondiff: error: {}: camera: 11585 x 11585 pixels need about 20.1 GB to render \
+             (about 150 bytes each), more than the 3.1 GB this process may use\n",
+            scene.display()
+        )
+    );
+    assert_eq!(out.status.code(), Some(1));
 }
 
 /// Outputs that name one of the scene's mesh files (a shape's, a placed `[meshes.NAME]`'s or

@@ -328,7 +328,10 @@ mod tests {
         // Grouped, not one sphere round them all: each group is far smaller than the whole.
         let whole = around(&targets);
         assert!(groups.iter().all(|g| g.radius < whole.radius / 2.0));
-        assert_eq!(grouped(targets[..64].to_vec(), MAX_TARGETS), targets[..64].to_vec());
+        assert_eq!(
+            grouped(targets[..64].to_vec(), MAX_TARGETS),
+            targets[..64].to_vec()
+        );
     }
 
     #[test]
