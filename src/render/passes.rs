@@ -106,9 +106,10 @@ pub const INTERRUPTED_IN_FIRST_PASS: &str =
     "interrupted during the first pass: no pass was finished, so no image was written";
 
 /// When a progressive render stops: after `passes` passes, before a pass that would end after
-/// `time_budget`, once the noise estimate falls below `target_noise`, or (with `on_interrupt`)
-/// after the pass under way when [`crate::util::interrupt`] asks it to, whichever comes first.
-/// At least one pass is rendered.
+/// `time_budget`, once the noise estimate falls below `target_noise` (or two passes show a
+/// black image), or (with `on_interrupt`) when [`crate::util::interrupt`] asks it to, the pass
+/// under way dropped, whichever comes first. At least one pass is rendered, but for a stop
+/// asked during the first.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct StopRules {
     /// Largest number of passes (`None`: no limit).

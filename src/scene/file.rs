@@ -653,7 +653,8 @@ fn check_sphere_memory(shapes: &[ShapeDesc], total: Option<u64>) -> Result<(), S
     if bytes > total {
         return Err(format!(
             "the spheres' triangles need {:.1} GB of mesh buffers (segments up to {largest}: \
-             {} triangles a sphere), more than the {:.1} GB this process may use: use fewer segments",
+             {} triangles a sphere), more than the {:.1} GB this process may use: use fewer \
+             segments",
             bytes as f64 / 1e9,
             shapes::sphere_triangles(largest),
             total as f64 / 1e9

@@ -2,9 +2,9 @@
 //! it between passes and stops with the passes it has, so that minutes of passes are not lost
 //! to one keystroke; within a pass, photon tracing and the tiles check it too ([`cut_short`])
 //! and the pass they cut is dropped, so that a stop takes seconds, not what is left of a pass
-//! (minutes for a large one: a batch system's grace period ran out); the command line installs the handler that makes the request (a second
-//! Ctrl-C there exits at once). The library never installs one: a render embedded elsewhere
-//! stops only by its rules.
+//! (minutes for a large one: a batch system's grace period ran out). The command line installs
+//! the handler that makes the request (a second Ctrl-C there exits at once). The library never
+//! installs one: a render embedded elsewhere stops only by its rules.
 
 use std::sync::atomic::{AtomicBool, Ordering};
 

@@ -2,11 +2,11 @@
 //! ([`ply`]), streamed from disk straight into the final vertex and index buffers.
 //!
 //! What every tool opens is accepted, and repaired where the renderer needs it ([`repair`]):
-//! degenerate triangles and faces of fewer than three vertices are dropped and zero or non-finite vertex normals replaced, each counted
-//! in a [`MeshReport`] (the command line warns once per mesh). Truly broken files (indices out of
-//! range, truncated data, non-numbers, non-finite positions) are errors naming the file and the
-//! element or line; a header that lies about its counts is refused before anything big is
-//! allocated.
+//! degenerate triangles and faces of fewer than three vertices are dropped and zero or
+//! non-finite vertex normals replaced, each counted in a [`MeshReport`] (the command line warns
+//! once per mesh). Truly broken files (indices out of range, truncated data, non-numbers,
+//! non-finite positions) are errors naming the file and the element or line; a header that
+//! lies about its counts is refused before anything big is allocated.
 
 pub mod obj;
 pub mod ply;
