@@ -10,12 +10,13 @@ pub const RGB_KEY: &str = "photondiff/rgb_xxh3";
 /// The attribute holding the checksum of a pass part's sums (`render --pass-range`).
 pub const SUMS_KEY: &str = "photondiff/sums_xxh3";
 
-/// The checksum of RGB values as the file holds them (f32, row by row), in hexadecimal.
-pub fn rgb(pixels: impl Iterator<Item = [f32; 3]>) -> String {
+/// The checksum of a film's RGB values as the file holds them (f32, row by row), in
+/// hexadecimal.
+pub fn rgb(film: &super::film::Film) -> String {
     let mut hash = Xxh3::new();
-    for p in pixels {
-        for c in p {
-            hash.update(&c.to_le_bytes());
+    for p in &film.pixels {
+        for c in [p.x, p.y, p.z] {
+            hash.update(&(c as f32).to_le_bytes());
         }
     }
     format!("{:016x}", hash.digest())

@@ -60,12 +60,10 @@ impl Film {
         });
         let mut attributes = LayerAttributes::named("photondiff");
         attributes.layer_position = Vec2(origin.0 as i32, origin.1 as i32);
-        let checksum = super::checksum::rgb(
-            self.pixels
-                .iter()
-                .map(|p| [p.x as f32, p.y as f32, p.z as f32]),
-        );
-        let checksum = [(super::checksum::RGB_KEY.to_string(), checksum)];
+        let checksum = [(
+            super::checksum::RGB_KEY.to_string(),
+            super::checksum::rgb(self),
+        )];
         for (key, value) in metadata.iter().chain(&checksum) {
             if let (Some(k), Some(v)) = (Text::new_or_none(key), Text::new_or_none(value)) {
                 attributes.other.insert(k, AttributeValue::Text(v));

@@ -70,11 +70,7 @@ pub fn read_part(path: &Path) -> Result<Part, String> {
         }
     }
     super::checksum::check(path, &metadata, super::checksum::RGB_KEY, || {
-        super::checksum::rgb(
-            film.pixels
-                .iter()
-                .map(|p| [p.x as f32, p.y as f32, p.z as f32]),
-        )
+        super::checksum::rgb(&film)
     })?;
     Ok(Part {
         path: path.to_path_buf(),

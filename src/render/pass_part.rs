@@ -60,11 +60,7 @@ pub fn write_pass_part(
         let values = mean.pixels.iter().map(|p| p[c] as f32).collect();
         channels.push(AnyChannel::new(*name, FlatSamples::F32(values)));
     }
-    let rgb = checksum::rgb(
-        mean.pixels
-            .iter()
-            .map(|p| [p.x as f32, p.y as f32, p.z as f32]),
-    );
+    let rgb = checksum::rgb(&mean);
     let checksums = [
         (checksum::RGB_KEY.to_string(), rgb),
         (checksum::SUMS_KEY.to_string(), sums),
