@@ -65,9 +65,9 @@ pub fn specular_targets(scene: &Scene) -> Vec<Target> {
 
 /// The most targets aimed at: beyond it, nearby targets are aimed at together, through the
 /// sphere around them. A target costs every aimed emission and bounce a cone test: 20,000
-/// instanced glass cubes took 35 s to trace their photons, 1.8-2.5 s grouped into 64-256
-/// spheres (the image within the noise between two seeds). 128 keeps the production scene's
-/// 100 instances each its own target.
+/// instanced glass cubes took 18.1 s to trace their photons, 1.3-1.4 s grouped into 128
+/// spheres (alternated in one run; the image within the noise between two seeds). 128 keeps
+/// the production scene's 100 instances each its own target.
 pub const MAX_TARGETS: usize = 128;
 
 /// `targets`, or when there are more than `max`, `max` spheres around groups of them: the
