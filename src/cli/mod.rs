@@ -31,9 +31,11 @@ pub fn load_scene(
     });
     bar.finish_and_clear();
     let (scene, hash) = loaded.map_err(|e| e.to_string())?;
+    let meshes: Vec<PathBuf> = scene.mesh_files.iter().map(|m| resolved(m)).collect();
     for (flag, output) in outputs {
         let here = resolved(output);
-        if let Some(mesh) = scene.mesh_files.iter().find(|m| resolved(m) == here) {
+        if let Some(k) = meshes.iter().position(|m| *m == here) {
+            let mesh = &scene.mesh_files[k];
             return Err(format!(
                 "{flag} names a mesh file of the scene ({}): the run would overwrite it",
                 mesh.display()

@@ -78,10 +78,10 @@ pub struct ReferenceArgs {
     quiet: bool,
 }
 
-/// The path of a reference's half `s` (`a` or `b`): `OUT-s.exr` beside `OUT.exr`.
 /// The regions a reference's noise is printed for (and `--masks` writes), in order.
 const REGIONS: [&str; 4] = ["floor", "caustic", "contour", "shadow"];
 
+/// The path of a reference's half `s` (`a` or `b`): `OUT-s.exr` beside `OUT.exr`.
 fn half_path(output: &Path, s: &str) -> PathBuf {
     PathBuf::from(format!("{}-{s}.exr", output.with_extension("").display()))
 }
@@ -446,31 +446,28 @@ fn write(
     let (reference, meta) = (&made.reference, &made.meta);
     let regions = Regions::new(scene, embree, &reference.film);
     let half = |s: &str| half_path(&args.output, s);
-    stats.time("write images", || -> Result<(), String> {
-        create_parent(&args.output)?;
-        reference.film.write_exr(&args.output, meta)?;
-        reference.half_a.write_exr(&half("a"), meta)?;
-        reference.half_b.write_exr(&half("b"), meta)
-    })?;
-    stats.reference_noise = reference.relative_noise(&reference.film.lit_pixels());
     let sets = [
         &regions.diffuse,
         &regions.caustic,
         &regions.contour,
         &regions.shadow,
     ];
-    if args.masks {
-        stats.time("write images", || -> Result<(), String> {
-            for (name, pixels) in REGIONS.iter().zip(sets) {
-                let mut mask = Film::new(reference.film.width, reference.film.height);
-                for &i in pixels {
-                    mask.pixels[i] = glam::DVec3::ONE;
-                }
-                mask.write_exr(&half(name), meta)?;
+    stats.time("write images", || -> Result<(), String> {
+        create_parent(&args.output)?;
+        reference.film.write_exr(&args.output, meta)?;
+        reference.half_a.write_exr(&half("a"), meta)?;
+        reference.half_b.write_exr(&half("b"), meta)?;
+        // Masks carry none of the reference's attributes: they are not references.
+        for (name, pixels) in REGIONS.iter().zip(sets).filter(|_| args.masks) {
+            let mut mask = Film::new(reference.film.width, reference.film.height);
+            for &i in pixels {
+                mask.pixels[i] = glam::DVec3::ONE;
             }
-            Ok(())
-        })?;
-    }
+            mask.write_exr(&half(name), &[])?;
+        }
+        Ok(())
+    })?;
+    stats.reference_noise = reference.relative_noise(&reference.film.lit_pixels());
     stats.reference_regions = REGIONS
         .iter()
         .zip(sets)

@@ -219,28 +219,33 @@ pub fn load_or_make(
     if file("").exists() && file("-a").exists() && file("-b").exists() {
         log(&format!("reference: reading {}", file("").display()));
         let whole = crate::render::part::read_part(&file(""))?;
-        let reference = Reference {
-            film: whole.film,
-            half_a: Film::read_exr(&file("-a"))?,
-            half_b: Film::read_exr(&file("-b"))?,
-        };
-        let same_size = reference.film.width == w && reference.film.height == h;
-        match whole.metadata.get(CONTENT_KEY) {
-            Some(made_of) if *made_of != content => log(&format!(
-                "reference: {} was made of another scene of that name (content {made_of}, \
-                 the scene's {content})",
-                file("").display()
-            )),
+        let same_size = whole.film.width == w && whole.film.height == h;
+        let reuse = match whole.metadata.get(CONTENT_KEY) {
+            Some(made_of) if *made_of != content => {
+                log(&format!(
+                    "reference: {} was made of another scene of that name (content \
+                     {made_of}, the scene's {content})",
+                    file("").display()
+                ));
+                false
+            }
             None if same_size => {
                 log(&format!(
                     "reference: {} does not record what scene it was made of (made before \
                      stop 50): delete it if the scene has changed since",
                     file("").display()
                 ));
-                return Ok(reference);
+                true
             }
-            _ if same_size => return Ok(reference),
-            _ => {}
+            _ => same_size,
+        };
+        // The halves are read only for a reference that is used.
+        if reuse {
+            return Ok(Reference {
+                film: whole.film,
+                half_a: Film::read_exr(&file("-a"))?,
+                half_b: Film::read_exr(&file("-b"))?,
+            });
         }
     }
     log(&format!(

@@ -495,8 +495,10 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
     // Each instanced mesh is loaded once, by its first instance, and shared by the others;
     // its load report goes with that first instance only, so that counts are not repeated.
     // Keyed by the file itself: two `[meshes]` names for one file read it (and held it) twice.
+    // Each name's file is resolved once (not once an instance: there may be 100,000).
     let mut loaded: BTreeMap<PathBuf, (Arc<crate::embree::TriangleMesh>, [DVec3; 2])> =
         BTreeMap::new();
+    let mut files: BTreeMap<&str, (PathBuf, PathBuf)> = BTreeMap::new(); // (key, path)
     for (i, inst) in file.instances.iter().enumerate() {
         let field = format!("instances[{i}]");
         let to_world = inst.transform(&field)?;
@@ -514,19 +516,24 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
             ));
         };
         let mut report = MeshReport::default();
-        let path = base.join(&desc.file);
-        let key = std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone());
-        let (mesh, bounds) = match loaded.get(&key) {
+        let (key, path) = files.entry(inst.mesh.as_str()).or_insert_with(|| {
+            let path = base.join(&desc.file);
+            (
+                std::fs::canonicalize(&path).unwrap_or_else(|_| path.clone()),
+                path,
+            )
+        });
+        let (mesh, bounds) = match loaded.get(key) {
             Some((mesh, bounds)) => (mesh.clone(), *bounds),
             None => {
                 let mut m = mesh_bytes
-                    .load(&path)
+                    .load(path)
                     .map_err(|e| format!("meshes.{}.file: {e}", inst.mesh))?;
                 report = m.report;
                 m.mesh.reserve_padding();
                 let mesh = Arc::new(m.mesh);
                 let bounds = vertex_bounds(&mesh);
-                loaded.insert(key, (mesh.clone(), bounds));
+                loaded.insert(key.clone(), (mesh.clone(), bounds));
                 (mesh, bounds)
             }
         };
@@ -612,19 +619,18 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
         lights.push(light);
     }
     let placed = file.placed();
-    let unplaced_meshes = file
+    let unplaced: Vec<(&String, &MeshDesc)> = file
         .meshes
-        .keys()
-        .filter(|name| !placed.contains(name.as_str()))
-        .cloned()
+        .iter()
+        .filter(|(name, _)| !placed.contains(name.as_str()))
         .collect();
-    let named = file.shapes.iter().filter_map(|s| match s {
-        ShapeDesc::Mesh(MeshShape { file, .. }) => Some(file),
-        _ => None,
-    });
-    let mesh_files = named
-        .chain(file.meshes.values().map(|m| &m.file))
-        .map(|f| base.join(f))
+    let unplaced_meshes = unplaced.iter().map(|(name, _)| (*name).clone()).collect();
+    // The files the scene reads, then those of the meshes no instance places.
+    let mesh_files = file
+        .mesh_files(base)
+        .into_iter()
+        .map(|(_, path)| path)
+        .chain(unplaced.iter().map(|(_, m)| base.join(&m.file)))
         .collect();
     Ok(Scene {
         camera,
