@@ -33,8 +33,14 @@ pub fn total_bytes() -> Option<u64> {
 /// The soft address-space limit (`Max address space` of `/proc/self/limits`), `None` when
 /// unlimited or unknown.
 fn address_space_limit() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/self/limits").ok()?;
-    let line = text.lines().find(|l| l.starts_with("Max address space"))?;
+    address_space_in(&std::fs::read_to_string("/proc/self/limits").ok()?)
+}
+
+/// The soft limit in the `Max address space` line of a `/proc/PID/limits` text.
+fn address_space_in(limits: &str) -> Option<u64> {
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
     line["Max address space".len()..]
         .split_whitespace()
         .next()?
@@ -65,24 +71,25 @@ pub fn resident_bytes() -> u64 {
 mod tests {
     use super::*;
 
-    /// The limit read is the process's own: a child under `ulimit -v` (in KiB) reports it.
+    /// The limit is read from the limits' text: a child under `ulimit -v` (in KiB) shows its
+    /// own; an unlimited one reads as none.
     #[test]
     fn an_address_space_limit_is_the_memory_a_process_may_use() {
-        let out = std::process::Command::new("sh")
-            .args([
-                "-c",
-                "ulimit -v 3000000; grep 'Max address space' /proc/self/limits",
-            ])
-            .output()
-            .unwrap();
-        let line = String::from_utf8(out.stdout).unwrap();
-        let limit: u64 = line["Max address space".len()..]
-            .split_whitespace()
-            .next()
-            .unwrap()
-            .parse()
-            .unwrap();
-        assert_eq!(limit, 3_000_000 * 1024, "{line}");
+        let limits = |shell: &str| {
+            let out = std::process::Command::new("sh")
+                .args(["-c", shell])
+                .output()
+                .unwrap();
+            String::from_utf8(out.stdout).unwrap()
+        };
+        let limited = limits("ulimit -v 3000000; cat /proc/self/limits");
+        assert_eq!(
+            address_space_in(&limited),
+            Some(3_000_000 * 1024),
+            "{limited}"
+        );
+        let unlimited = limits("ulimit -v unlimited; cat /proc/self/limits");
+        assert_eq!(address_space_in(&unlimited), None, "{unlimited}");
         // This process: unlimited here, so the machine's memory or a control group's.
         assert!(address_space_limit().is_none_or(|l| l >= total_bytes().unwrap()));
     }
