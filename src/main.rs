@@ -98,6 +98,12 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             eprintln!("photondiff: error: {message}");
+            if let Some(trace) = cli::write_trace_of_failure(&message) {
+                eprintln!(
+                    "photondiff: the trace of the failed run is in {}",
+                    trace.display()
+                );
+            }
             cli::remove_created_folders();
             // Stopped by Ctrl-C before anything could be written: 128 + SIGINT all the same.
             match photondiff::util::interrupt::requested() {

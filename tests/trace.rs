@@ -380,3 +380,76 @@ fn reference_traces_its_stages_and_writes_its_noise_per_region() {
         assert!(start >= tracing.0 && end <= tracing.1 + 1.0);
     }
 }
+
+/// A run that fails once its trace has begun still writes the trace, ending in an instant
+/// event that holds the error (the trace of a run that failed after an hour is the one worth
+/// reading; nothing was written before); a run whose statistics cannot be written after its
+/// image was says that the image is complete and kept.
+#[test]
+fn a_failed_run_writes_its_trace_and_a_finished_image_is_said_to_be_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let text = include_str!("../scenes/caustic-sphere.toml")
+        .replace("width = 640", "width = 32")
+        .replace("height = 480", "height = 24");
+    // The sphere's mesh file missing: the run fails while loading, after the trace began.
+    let broken = format!(
+        "{text}\n[[shapes]]\ntype = \"mesh\"\nfile = \"nowhere.obj\"\nmaterial = \"floor\"\n"
+    );
+    std::fs::write(&scene, &broken).unwrap();
+    let trace = dir.path().join("trace.json");
+    let out = Command::new(EXE)
+        .arg("render")
+        .arg(&scene)
+        .arg("-o")
+        .arg(dir.path().join("a.exr"))
+        .arg("--trace")
+        .arg(&trace)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.ends_with(&format!(
+            "photondiff: the trace of the failed run is in {}\n",
+            trace.display()
+        )),
+        "{stderr}"
+    );
+    let json: Value = serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+    let events = json["traceEvents"].as_array().unwrap();
+    let errors: Vec<&Value> = events.iter().filter(|e| e["name"] == "error").collect();
+    assert_eq!(errors.len(), 1, "{events:?}");
+    assert_eq!(errors[0]["ph"], "i");
+    let message = errors[0]["args"]["message"].as_str().unwrap();
+    assert!(
+        message.starts_with(&format!("{}: shapes[2].file: ", scene.display()))
+            && message.contains("nowhere.obj: cannot read OBJ: "),
+        "{message}"
+    );
+    assert!(!dir.path().join("a.exr").exists());
+
+    // The image written, then its statistics refused by a full device.
+    std::fs::write(&scene, &text).unwrap();
+    let (exr, png) = (dir.path().join("b.exr"), dir.path().join("b.png"));
+    let out = Command::new(EXE)
+        .arg("render")
+        .arg(&scene)
+        .args(["--estimator", "direct", "-q", "-o"])
+        .arg(&exr)
+        .args(["--stats-json", "/dev/full"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert_eq!(
+        stderr,
+        format!(
+            "photondiff: error: --stats-json: /dev/full: cannot write: No space left on device \
+             (os error 28) (the run's output is complete and kept: {}, {})\n",
+            exr.display(),
+            png.display()
+        )
+    );
+    assert!(exr.exists() && png.exists());
+}

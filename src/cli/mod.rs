@@ -111,24 +111,50 @@ pub fn start_trace(trace: Option<&Path>) -> Result<(), String> {
     if let Some(path) = trace {
         create_parent(path)?;
         photondiff::util::trace::enable();
+        let _ = TRACE_PATH.set(path.to_path_buf());
     }
     Ok(())
 }
 
+/// Where `--trace` goes, once [`start_trace`] has begun it: a run that fails after that
+/// still writes it ([`write_trace_of_failure`]).
+static TRACE_PATH: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+
+/// Writes the trace of a run that failed with `message`, if one was being recorded, with the
+/// failure as an instant event at its end: the trace of a run that failed after an hour is
+/// the one worth reading. Returns where it went.
+pub fn write_trace_of_failure(message: &str) -> Option<PathBuf> {
+    let path = TRACE_PATH.get()?;
+    photondiff::util::trace::instant("error", serde_json::json!({ "message": message }));
+    photondiff::util::trace::write(path).ok()?;
+    Some(path.clone())
+}
+
 /// Writes the trace (`--trace`) and the statistics as JSON (`--stats-json`) where asked for,
 /// at the end of a run.
+/// `written` are the run's outputs, already complete: an error here says they are, so that
+/// an hour's image is not thrown away for want of its statistics.
 pub fn write_trace_and_stats(
     trace: Option<&Path>,
     stats_json: Option<&Path>,
     stats: &photondiff::render::stats::Stats,
+    written: &[&Path],
 ) -> Result<(), String> {
+    let kept = |e: String| {
+        let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+        format!(
+            "{e} (the run's output is complete and kept: {})",
+            names.join(", ")
+        )
+    };
     if let Some(path) = trace {
-        photondiff::util::trace::write(path).map_err(|e| format!("--trace: {e}"))?;
+        photondiff::util::trace::write(path).map_err(|e| kept(format!("--trace: {e}")))?;
     }
     if let Some(path) = stats_json {
-        create_parent(path)?;
+        create_parent(path).map_err(kept)?;
         let json = serde_json::to_string_pretty(stats).map_err(|e| e.to_string())?;
-        photondiff::util::atomic::write_bytes(path, json.as_bytes())?;
+        photondiff::util::atomic::write_bytes(path, json.as_bytes())
+            .map_err(|e| kept(format!("--stats-json: {e}")))?;
     }
     Ok(())
 }

@@ -105,7 +105,12 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         file::write(&args.output, &maps, &counts, hash, &options)
     })?;
     stats.memory.record_peak();
-    super::write_trace_and_stats(args.trace.as_deref(), args.stats_json.as_deref(), &stats)?;
+    super::write_trace_and_stats(
+        args.trace.as_deref(),
+        args.stats_json.as_deref(),
+        &stats,
+        &[&args.output],
+    )?;
     // Stored photons, as the statistics count them; mirror photons at walls apart.
     let mirrors = maps.caustic.guards.mirrored + maps.global.guards.mirrored;
     println!(

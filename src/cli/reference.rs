@@ -505,7 +505,13 @@ fn write(
         println!("wrote the regions' masks {}", names.join(", "));
     }
     stats.memory.record_peak();
-    super::write_trace_and_stats(args.trace.as_deref(), args.stats_json.as_deref(), &stats)?;
+    let (a, b) = (half("a"), half("b"));
+    super::write_trace_and_stats(
+        args.trace.as_deref(),
+        args.stats_json.as_deref(),
+        &stats,
+        &[&args.output, &a, &b],
+    )?;
     super::print_memory(&mut stats.memory, args.quiet);
     Ok(())
 }

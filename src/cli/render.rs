@@ -377,7 +377,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         film.write_png(&png)
     })?;
     stats.memory.record_peak();
-    super::write_trace_and_stats(args.trace.as_deref(), args.stats_json.as_deref(), &stats)?;
+    super::write_trace_and_stats(
+        args.trace.as_deref(),
+        args.stats_json.as_deref(),
+        &stats,
+        &[&exr, &png],
+    )?;
     if !args.quiet {
         eprint!("{}", stats.summary());
     }

@@ -108,6 +108,18 @@ pub fn counter(name: &str, values: impl FnOnce() -> Value) {
     }
 }
 
+/// An instant event `name` (a line across every track in Perfetto) with `args`: a run's
+/// failure, at the moment it was given up.
+pub fn instant(name: &str, args: Value) {
+    if enabled() {
+        let tid = THREAD.with(|t| *t);
+        push(
+            json!({"name": name, "cat": "photondiff", "ph": "i", "s": "g", "pid": 1,
+                    "tid": tid, "ts": now_us(), "args": args}),
+        );
+    }
+}
+
 /// Writes what was recorded to `path` (whole or not at all), as `{"traceEvents": [...]}`.
 pub fn write(path: &Path) -> Result<(), String> {
     let mut events = match recorder().events.lock() {
