@@ -83,7 +83,7 @@ fn main() -> ExitCode {
     {
         args.given = given(sub);
     }
-    let result = match cli.command {
+    let ran = match cli.command {
         Command::Render(args) => cli::render::run(&args),
         Command::Reference(args) => cli::reference::run(&args),
         Command::Merge(args) => cli::merge::run(&args),
@@ -92,6 +92,11 @@ fn main() -> ExitCode {
         Command::Report(args) => cli::report::run(&args),
         Command::Info(args) => cli::info::run(&args),
     };
+    // What the command printed is part of its output (`compare > results.txt`).
+    let result = ran.and_then(|()| match cli::stdout_failure() {
+        Some(e) => Err(e.clone()),
+        None => Ok(()),
+    });
     match result {
         // Stopped early by Ctrl-C (the conventional 128 + SIGINT), with what was done written.
         Ok(()) if photondiff::util::interrupt::honoured() => ExitCode::from(130),

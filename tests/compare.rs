@@ -689,3 +689,37 @@ fn exr_headers_claiming_more_than_the_file_holds_are_refused() {
         assert_eq!(out.status.code(), Some(1));
     }
 }
+
+/// Standard output whose reader has gone (`compare a b | head -1`) is dropped, not a panic
+/// with a backtrace and status 101; one that cannot be written (a full disk under
+/// `> results.txt`) is the run's error, status 1.
+#[test]
+fn a_closed_pipe_is_no_panic_and_a_full_disk_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let (image, reference) = pair(dir.path());
+    // A pipe whose reading end is closed before the run starts: every write fails.
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let out = std::process::Command::new(bin())
+        .arg("compare")
+        .args([&image, &reference])
+        .stdout(writer)
+        .output()
+        .unwrap();
+    let said = String::from_utf8_lossy(&out.stderr);
+    assert_eq!((out.status.code(), said.as_ref()), (Some(0), ""));
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let out = std::process::Command::new(bin())
+        .arg("compare")
+        .args([&image, &reference])
+        .stdout(full)
+        .output()
+        .unwrap();
+    assert_eq!(
+        stderr(&out),
+        "photondiff: error: standard output: cannot write: No space left on device (os error 28)\n"
+    );
+}

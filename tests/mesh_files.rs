@@ -397,10 +397,11 @@ fn broken_ascii_ply_files_name_the_element_and_line() {
 fn the_command_line_warns_once_counts_repairs_and_info_describes_files() {
     let exe = env!("CARGO_BIN_EXE_photondiff");
     let dir = tempfile::tempdir().unwrap();
-    // Two degenerate triangles and a zero normal in a fine quad.
+    // Two degenerate triangles and a zero normal in a fine quad, and a stray vertex far off
+    // (vertex 6; vertex 5 only a dropped triangle uses): both go, and the bounds without them.
     std::fs::write(
         dir.path().join("quad.obj"),
-        "mtllib gone.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nv 0 0 0\nvn 0 1 0\nvn 0 0 0\n\
+        "mtllib gone.mtl\nv -1 0 1\nv 1 0 1\nv 1 0 -1\nv -1 0 -1\nv 0 0 0\nv 1000 0 0\nvn 0 1 0\nvn 0 0 0\n\
          f 1//1 2//1 3//1 4//2\nf 1//1 2//1 1//1\nf 5//1 5//1 5//1\n",
     )
     .unwrap();
@@ -439,26 +440,27 @@ fn the_command_line_warns_once_counts_repairs_and_info_describes_files() {
         format!(
             "photondiff: warning: {}: shapes[0] (mesh quad.obj): dropped 2 degenerate \
              (zero-area) triangles (the first: [-1.0, 0.0, 1.0] [1.0, 0.0, 1.0] [-1.0, 0.0, 1.0]); \
-             replaced 1 zero or non-finite vertex normal by the geometric normal there",
+             dropped 2 vertices no triangle uses; replaced 1 zero or non-finite vertex normal by the geometric normal there",
             scene.display()
         )
     );
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
     assert_eq!(json["mesh_repairs"]["degenerate_triangles"], 2);
     assert_eq!(json["mesh_repairs"]["repaired_normals"], 1);
+    assert_eq!(json["mesh_repairs"]["unused_vertices"], 2);
 
     let out = Command::new(exe).arg("info").arg(&scene).output().unwrap();
     assert!(out.status.success());
     let text = String::from_utf8_lossy(&out.stdout);
     for line in [
         "shapes[0] (mesh quad.obj):",
-        "  vertices   5",
+        "  vertices   4",
         "  triangles  2 (from 3 faces; 1 polygons triangulated, 0 of them concave)",
         "  bounds     [-1, 0, -1] .. [1, 0, 1] (size 2 x 0 x 2)",
-        "  dropped    2 degenerate (zero-area) triangles",
+        "  dropped    2 degenerate (zero-area) triangles, 2 vertices no triangle uses",
         "  repaired   1 zero or non-finite vertex normals",
-        // 12 bytes x (5 positions + 5 normals + 2 triangles) = 144 bytes.
-        "  memory     144 bytes (0.0 MiB) of mesh buffers",
+        // 12 bytes x (4 positions + 4 normals + 2 triangles) = 120 bytes.
+        "  memory     120 bytes (0.0 MiB) of mesh buffers",
         "  BVH        medium (by default under 4,000,000 unique triangles; --bvh-compact for \
          about half the memory)",
     ] {

@@ -381,9 +381,10 @@ fn reference_traces_its_stages_and_writes_its_noise_per_region() {
     }
 }
 
-/// A run that fails once its trace has begun still writes the trace, ending in an instant
-/// event that holds the error (the trace of a run that failed after an hour is the one worth
-/// reading; nothing was written before); a run whose statistics cannot be written after its
+/// A run that fails once its scene is read still writes its trace, ending in an instant event
+/// that holds the error (the trace of a run that failed after an hour is the one worth
+/// reading; nothing was written before; not before the scene is read, when the trace's path
+/// might name one of its mesh files); a run whose statistics cannot be written after its
 /// image was says that the image is complete and kept.
 #[test]
 fn a_failed_run_writes_its_trace_and_a_finished_image_is_said_to_be_kept() {
@@ -392,16 +393,31 @@ fn a_failed_run_writes_its_trace_and_a_finished_image_is_said_to_be_kept() {
     let text = include_str!("../scenes/caustic-sphere.toml")
         .replace("width = 640", "width = 32")
         .replace("height = 480", "height = 24");
-    // The sphere's mesh file missing: the run fails while loading, after the trace began.
-    let broken = format!(
-        "{text}\n[[shapes]]\ntype = \"mesh\"\nfile = \"nowhere.obj\"\nmaterial = \"floor\"\n"
-    );
-    std::fs::write(&scene, &broken).unwrap();
+    // Photon maps of the scene before its floor was repainted: refused once the scene is
+    // read, after the trace began.
+    std::fs::write(&scene, &text).unwrap();
+    let maps = dir.path().join("maps.pdm");
+    common::run_ok([
+        "photons".as_ref(),
+        scene.as_os_str(),
+        "-q".as_ref(),
+        "--caustic-photons".as_ref(),
+        "1000".as_ref(),
+        "--photons".as_ref(),
+        "1000".as_ref(),
+        "-o".as_ref(),
+        maps.as_os_str(),
+    ]);
+    let repainted = text.replace("albedo = [0.75, 0.75, 0.75]", "albedo = [0.7, 0.7, 0.7]");
+    assert_ne!(repainted, text);
+    std::fs::write(&scene, &repainted).unwrap();
     let trace = dir.path().join("trace.json");
     let out = Command::new(EXE)
         .arg("render")
         .arg(&scene)
-        .arg("-o")
+        .arg("--photon-maps")
+        .arg(&maps)
+        .args(["--caustic-photons", "1000", "--photons", "1000", "-o"])
         .arg(dir.path().join("a.exr"))
         .arg("--trace")
         .arg(&trace)
@@ -423,14 +439,19 @@ fn a_failed_run_writes_its_trace_and_a_finished_image_is_said_to_be_kept() {
     assert_eq!(errors[0]["ph"], "i");
     let message = errors[0]["args"]["message"].as_str().unwrap();
     assert!(
-        message.starts_with(&format!("{}: shapes[2].file: ", scene.display()))
-            && message.contains("nowhere.obj: cannot read OBJ: "),
+        message.starts_with(&format!("{}: photon maps of another scene", maps.display())),
         "{message}"
+    );
+    // The stages before the failure are in it.
+    assert!(
+        events
+            .iter()
+            .any(|e| e["ph"] == "X" && e["name"] == "load scene"),
+        "{events:?}"
     );
     assert!(!dir.path().join("a.exr").exists());
 
     // The image written, then its statistics refused by a full device.
-    std::fs::write(&scene, &text).unwrap();
     let (exr, png) = (dir.path().join("b.exr"), dir.path().join("b.png"));
     let out = Command::new(EXE)
         .arg("render")

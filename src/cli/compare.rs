@@ -51,7 +51,7 @@ fn cell(v: Option<f64>, digits: usize) -> String {
 }
 
 fn print_table(args: &CompareArgs, image: &ChannelImage, rows: &[RegionMetrics]) {
-    println!(
+    out!(
         "{} against the reference {}: {} x {} pixels, channels {}",
         args.image.display(),
         args.reference.display(),
@@ -59,12 +59,18 @@ fn print_table(args: &CompareArgs, image: &ChannelImage, rows: &[RegionMetrics])
         image.height,
         image.names.join(",")
     );
-    println!(
+    out!(
         "{:<16} {:>9} {:>10} {:>12} {:>9} {:>10} {:>8}",
-        "region", "pixels", "relRMSE", "RMSE", "PSNR dB", "mean ratio", "SSIM"
+        "region",
+        "pixels",
+        "relRMSE",
+        "RMSE",
+        "PSNR dB",
+        "mean ratio",
+        "SSIM"
     );
     for r in rows {
-        println!(
+        out!(
             "{:<16} {:>9} {:>10} {:>12} {:>9} {:>10} {:>8}",
             r.name,
             r.pixels,
@@ -75,7 +81,7 @@ fn print_table(args: &CompareArgs, image: &ChannelImage, rows: &[RegionMetrics])
             cell(r.ssim, 4)
         );
     }
-    println!(
+    out!(
         "relRMSE = sqrt(mean((I - R)^2)) / mean(R) over pixels and channels (alpha excluded); \
          PSNR peak = the reference's largest value in the region; SSIM on sRGB luminance, \
          8 x 8 windows touching the region; '-' = undefined"
@@ -180,7 +186,7 @@ pub fn run(args: &CompareArgs) -> Result<(), String> {
                 .map(|&c| reference.names[c].clone()).collect::<Vec<_>>(),
             "regions": rows,
         });
-        println!(
+        out!(
             "{}",
             serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?
         );

@@ -91,7 +91,7 @@ pub fn run(args: &InfoArgs) -> Result<(), String> {
         out += &describe(&loaded.mesh, &loaded.report);
     }
     out += MEMORY_NOTE;
-    print!("{out}");
+    out!("{}", out.trim_end_matches('\n'));
     Ok(())
 }
 
@@ -143,8 +143,8 @@ fn describe(mesh: &TriangleMesh, report: &MeshReport) -> String {
 
 fn dropped(r: &MeshReport) -> String {
     format!(
-        "{} degenerate (zero-area) triangles",
-        r.degenerate_triangles
+        "{} degenerate (zero-area) triangles, {} vertices no triangle uses",
+        r.degenerate_triangles, r.unused_vertices
     )
 }
 

@@ -57,7 +57,7 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
         let json = serde_json::to_string_pretty(&merged.stats).map_err(|e| e.to_string())?;
         photondiff::util::atomic::write_bytes(path, json.as_bytes())?;
     }
-    println!(
+    out!(
         "merged {} part{} into {} and {}",
         parts.len(),
         if parts.len() == 1 { "" } else { "s" },

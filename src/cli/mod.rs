@@ -1,5 +1,14 @@
 //! The subcommands of the command line, one file each, and what they share.
 
+/// `println!` for what a command prints on standard output, without its panic when the
+/// reader has gone (`photondiff compare ... | head -3` panicked with "failed printing to
+/// stdout: Broken pipe" and a backtrace): the line is dropped and the run goes on.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli::print_out(format_args!($($arg)*))
+    };
+}
+
 pub mod bvh;
 pub mod compare;
 pub mod info;
@@ -14,9 +23,29 @@ pub mod report;
 use photondiff::scene::Scene;
 use std::path::{Path, PathBuf};
 
+/// Writes `line` and a newline on standard output ([`out!`]): a closed pipe drops it; any
+/// other failure (a full disk under `> results.txt`) is kept for [`stdout_failure`], and the
+/// run ends with it as its error.
+pub fn print_out(line: std::fmt::Arguments) {
+    use std::io::Write;
+    if let Err(e) = writeln!(std::io::stdout().lock(), "{line}") {
+        if e.kind() != std::io::ErrorKind::BrokenPipe {
+            let _ = STDOUT_FAILURE.set(format!("standard output: cannot write: {e}"));
+        }
+    }
+}
+
+static STDOUT_FAILURE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+
+/// The first failure to write standard output other than a closed pipe, if any.
+pub fn stdout_failure() -> Option<&'static String> {
+    STDOUT_FAILURE.get()
+}
+
 /// Loads the scene at `path` (its mesh files' reading a bar, `load`, when `progress`: a large
 /// mesh takes seconds to read), refuses `outputs` that name one of its mesh files (known only
-/// once the scene is read: a scene may be a pipe, read once) and prints its warnings.
+/// once the scene is read: a scene may be a pipe, read once) and prints its warnings. From
+/// then on a failed run writes its trace ([`write_trace_of_failure`]).
 pub fn load_scene(
     path: &Path,
     progress: bool,
@@ -42,6 +71,7 @@ pub fn load_scene(
             ));
         }
     }
+    TRACE_PATH.lock().unwrap_or_else(|e| e.into_inner()).1 = true;
     warn_about_scene(path, &scene);
     Ok((scene, hash))
 }
@@ -111,23 +141,25 @@ pub fn start_trace(trace: Option<&Path>) -> Result<(), String> {
     if let Some(path) = trace {
         create_parent(path)?;
         photondiff::util::trace::enable();
-        let _ = TRACE_PATH.set(path.to_path_buf());
+        *TRACE_PATH.lock().unwrap_or_else(|e| e.into_inner()) = (Some(path.to_path_buf()), false);
     }
     Ok(())
 }
 
-/// Where `--trace` goes, once [`start_trace`] has begun it: a run that fails after that
-/// still writes it ([`write_trace_of_failure`]).
-static TRACE_PATH: std::sync::OnceLock<PathBuf> = std::sync::OnceLock::new();
+/// Where `--trace` goes, once [`start_trace`] has begun it, and whether a failed run may
+/// write it there ([`write_trace_of_failure`]): only once the scene is read and no output
+/// names one of its mesh files ([`load_scene`]), which a failure's trace would overwrite.
+static TRACE_PATH: std::sync::Mutex<(Option<PathBuf>, bool)> = std::sync::Mutex::new((None, false));
 
-/// Writes the trace of a run that failed with `message`, if one was being recorded, with the
-/// failure as an instant event at its end: the trace of a run that failed after an hour is
-/// the one worth reading. Returns where it went.
+/// Writes the trace of a run that failed with `message`, if one was being recorded and the
+/// scene was read, with the failure as an instant event at its end: the trace of a run that
+/// failed after an hour is the one worth reading. Returns where it went.
 pub fn write_trace_of_failure(message: &str) -> Option<PathBuf> {
-    let path = TRACE_PATH.get()?;
+    let (path, armed) = TRACE_PATH.lock().unwrap_or_else(|e| e.into_inner()).clone();
+    let path = path.filter(|_| armed)?;
     photondiff::util::trace::instant("error", serde_json::json!({ "message": message }));
-    photondiff::util::trace::write(path).ok()?;
-    Some(path.clone())
+    photondiff::util::trace::write(&path).ok()?;
+    Some(path)
 }
 
 /// Writes the trace (`--trace`) and the statistics as JSON (`--stats-json`) where asked for,

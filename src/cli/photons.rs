@@ -113,7 +113,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     )?;
     // Stored photons, as the statistics count them; mirror photons at walls apart.
     let mirrors = maps.caustic.guards.mirrored + maps.global.guards.mirrored;
-    println!(
+    out!(
         "wrote {}: {} caustic and {} global photons{}",
         args.output.display(),
         counts[0].stored,

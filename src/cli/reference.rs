@@ -480,18 +480,18 @@ fn write(
         .collect();
     match made.seconds {
         Some(s) => {
-            println!("reference made in {s:.1} s; relative noise per pixel (from its halves):")
+            out!("reference made in {s:.1} s; relative noise per pixel (from its halves):")
         }
-        None => println!("references merged; relative noise per pixel (from its halves):"),
+        None => out!("references merged; relative noise per pixel (from its halves):"),
     }
     for r in &stats.reference_regions {
         // An empty region: said so, not "inf".
         let noise = r
             .relative_noise
             .map_or_else(|| "n/a (no pixels)".to_string(), |n| format!("{n:.4}"));
-        println!("  {:8} {:7} px  {noise}", r.name, r.pixels);
+        out!("  {:8} {:7} px  {noise}", r.name, r.pixels);
     }
-    println!(
+    out!(
         "wrote {} and its halves {}, {}",
         args.output.display(),
         half("a").display(),
@@ -502,7 +502,7 @@ fn write(
             .iter()
             .map(|r| half(r).display().to_string())
             .collect();
-        println!("wrote the regions' masks {}", names.join(", "));
+        out!("wrote the regions' masks {}", names.join(", "));
     }
     stats.memory.record_peak();
     let (a, b) = (half("a"), half("b"));

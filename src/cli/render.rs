@@ -386,7 +386,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if !args.quiet {
         eprint!("{}", stats.summary());
     }
-    println!("wrote {} and {}", exr.display(), png.display());
+    out!("wrote {} and {}", exr.display(), png.display());
     // Whatever --quiet says: the image is not what the options asked for.
     if let Some(p) = stats.progressive.as_ref() {
         if p.stop == StopReason::Interrupted {

@@ -224,6 +224,6 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
         exposure: args.exposure,
     };
     let page = report::write(&report, &args.output)?;
-    println!("report: {}", page.display());
+    out!("report: {}", page.display());
     Ok(())
 }

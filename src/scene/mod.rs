@@ -302,11 +302,27 @@ impl Scene {
     /// World-space bounds `[lo, hi]` of each of `self.meshes` (an instance's are its mesh's
     /// box transformed, a little larger than tight), each mesh's positions read once.
     pub fn mesh_bounds(&self) -> Vec<[DVec3; 2]> {
+        self.meshes
+            .iter()
+            .zip(self.local_bounds())
+            .map(|(m, box_)| match m.transform {
+                None => box_,
+                Some(t) => bounds((0..8).map(|i| {
+                    let pick = |axis: usize| box_[(i >> axis) & 1][axis];
+                    t.transform_point3(DVec3::new(pick(0), pick(1), pick(2)))
+                })),
+            })
+            .collect()
+    }
+
+    /// Bounds `[lo, hi]` of each of `self.meshes` in its own file's coordinates (its vertices
+    /// as stored), each mesh's positions read once.
+    fn local_bounds(&self) -> Vec<[DVec3; 2]> {
         let mut local: Vec<(&Arc<TriangleMesh>, [DVec3; 2])> = Vec::new();
         self.meshes
             .iter()
-            .map(|m| {
-                let box_ = match local.iter().find(|(u, _)| Arc::ptr_eq(u, &m.mesh)) {
+            .map(
+                |m| match local.iter().find(|(u, _)| Arc::ptr_eq(u, &m.mesh)) {
                     Some((_, b)) => *b,
                     None => {
                         let b = bounds(
@@ -318,15 +334,8 @@ impl Scene {
                         local.push((&m.mesh, b));
                         b
                     }
-                };
-                match m.transform {
-                    None => box_,
-                    Some(t) => bounds((0..8).map(|i| {
-                        let pick = |axis: usize| box_[(i >> axis) & 1][axis];
-                        t.transform_point3(DVec3::new(pick(0), pick(1), pick(2)))
-                    })),
-                }
-            })
+                },
+            )
             .collect()
     }
 
@@ -342,7 +351,11 @@ impl Scene {
     /// floor 10^5 across, 2e-5 of the extent is 2.8, and rays leaving a sphere of radius 1
     /// stepped over its far side and its shadow (the sphere vanished). Never below 5e-7 of
     /// the largest coordinate (about ten single-precision steps there), where Embree's own
-    /// rounding would have rays hit the surface they leave.
+    /// rounding would have rays hit the surface they leave. An instance's coordinates count
+    /// as Embree sees them: its mesh's own, times the transform's largest stretch (Embree
+    /// intersects an instance in its mesh's frame; a mesh stored 10^5 from its origin and
+    /// placed back at the world's was tested with the world's offset, and its lit side came
+    /// out in bands of acne at 55% of its light).
     pub fn ray_epsilon(&self) -> f64 {
         let boxes = self.mesh_bounds();
         let [lo, hi] = bounds(boxes.iter().flatten().copied());
@@ -355,7 +368,20 @@ impl Scene {
             .map(|[a, b]| (*b - *a).length())
             .filter(|d| *d > 0.0)
             .fold(f64::INFINITY, f64::min);
-        let largest_coordinate = lo.abs().max(hi.abs()).max_element();
+        let in_frames = self
+            .meshes
+            .iter()
+            .zip(self.local_bounds())
+            .filter_map(|(m, [lo, hi])| {
+                let t = m.transform?;
+                let stretch = [t.matrix3.x_axis, t.matrix3.y_axis, t.matrix3.z_axis]
+                    .map(|c| c.length())
+                    .into_iter()
+                    .fold(0.0, f64::max);
+                Some(lo.abs().max(hi.abs()).max_element() * stretch)
+            })
+            .fold(0.0, f64::max);
+        let largest_coordinate = lo.abs().max(hi.abs()).max_element().max(in_frames);
         (2e-5 * extent)
             .min(1e-3 * smallest)
             .max(5e-7 * largest_coordinate)

@@ -2,9 +2,9 @@
 //! ([`ply`]), streamed from disk straight into the final vertex and index buffers.
 //!
 //! What every tool opens is accepted, and repaired where the renderer needs it ([`repair`]):
-//! degenerate triangles and faces of fewer than three vertices are dropped and zero or
-//! non-finite vertex normals replaced, each counted in a [`MeshReport`] (the command line warns
-//! once per mesh). Truly broken files (indices out of range, truncated data, non-numbers,
+//! degenerate triangles, faces of fewer than three vertices and vertices no triangle uses are
+//! dropped and zero or non-finite vertex normals replaced, each counted in a [`MeshReport`]
+//! (the command line warns once per mesh). Truly broken files (indices out of range, truncated data, non-numbers,
 //! non-finite positions) are errors naming the file and the element or line; a header that
 //! lies about its counts is refused before anything big is allocated.
 
@@ -40,6 +40,9 @@ pub struct MeshReport {
     /// Triangles whose winding points away from all three of their vertex normals: the
     /// winding decides which side is outside, so such a mesh's glass is inside out.
     pub against_normals: u64,
+    /// Vertices no triangle uses (after degenerate triangles are dropped), dropped: the
+    /// scene's size, its ray offsets and footprint limits, come from its vertices.
+    pub unused_vertices: u64,
 }
 
 impl MeshReport {
@@ -77,6 +80,17 @@ impl MeshReport {
                 plural(self.short_faces)
             ));
         }
+        if self.unused_vertices > 0 {
+            parts.push(format!(
+                "dropped {} {} no triangle uses",
+                self.unused_vertices,
+                if self.unused_vertices == 1 {
+                    "vertex"
+                } else {
+                    "vertices"
+                }
+            ));
+        }
         if self.repaired_normals > 0 {
             parts.push(format!(
                 "replaced {} zero or non-finite vertex normal{} by the geometric normal there",
@@ -98,6 +112,7 @@ impl MeshReport {
         self.skipped_lines_points += other.skipped_lines_points;
         self.short_faces += other.short_faces;
         self.against_normals += other.against_normals;
+        self.unused_vertices += other.unused_vertices;
     }
 }
 

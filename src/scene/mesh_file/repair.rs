@@ -1,6 +1,7 @@
 //! What modelling tools leave in meshes and the renderer cannot use, repaired in place:
-//! degenerate triangles are dropped (Embree would drop them silently, and they have no normal)
-//! and zero or non-finite vertex normals are replaced by the geometric normal around the vertex.
+//! degenerate triangles are dropped (Embree would drop them silently, and they have no normal),
+//! then the vertices no triangle uses (they would count in the scene's size), and zero or
+//! non-finite vertex normals are replaced by the geometric normal around the vertex.
 
 use super::MeshReport;
 use crate::embree::TriangleMesh;
@@ -66,11 +67,55 @@ pub fn repair(mesh: &mut TriangleMesh, report: &mut MeshReport) -> Result<(), St
     report.degenerate_triangles += (before - mesh.triangles.len()) as u64;
     report.first_degenerate = report.first_degenerate.or(first);
     mesh.triangles.shrink_to_fit();
+    report.unused_vertices += drop_unused_vertices(mesh);
+    let positions = &mesh.positions;
     if let Some(normals) = &mut mesh.normals {
         report.repaired_normals += repair_normals(positions, &mesh.triangles, normals);
         report.against_normals += against_normals(positions, &mesh.triangles, normals);
     }
     Ok(())
+}
+
+/// Drops the vertices no triangle uses (those of dropped triangles too), renumbering the
+/// triangles' indices in order; returns how many went. Such a vertex is invisible, but the
+/// scene's size is its vertices' box, which sets the ray offsets and the photons' footprint
+/// limits: one stray vertex 1,000 units off moved a caustic (relRMSE 2.2 against 0.018
+/// between seeds), at 10^6 it took it away. Costs one pass over the indices when every
+/// vertex is used (a bitmap, a bit a vertex); otherwise 4 bytes a vertex while renumbering.
+fn drop_unused_vertices(mesh: &mut TriangleMesh) -> u64 {
+    let n = mesh.positions.len();
+    let mut used = vec![0u64; n.div_ceil(64)];
+    for &k in mesh.triangles.iter().flatten() {
+        used[k as usize / 64] |= 1 << (k % 64);
+    }
+    let kept: usize = used.iter().map(|w| w.count_ones() as usize).sum();
+    if kept == n {
+        return 0;
+    }
+    let is_used = |i: usize| used[i / 64] >> (i % 64) & 1 == 1;
+    // New index of each kept vertex; vertices move down in place, in order.
+    let mut renumber = vec![u32::MAX; n];
+    let mut next = 0;
+    for (i, slot) in renumber.iter_mut().enumerate() {
+        if is_used(i) {
+            *slot = next as u32;
+            mesh.positions[next] = mesh.positions[i];
+            if let Some(normals) = &mut mesh.normals {
+                normals[next] = normals[i];
+            }
+            next += 1;
+        }
+    }
+    mesh.positions.truncate(kept);
+    if let Some(normals) = &mut mesh.normals {
+        normals.truncate(kept);
+    }
+    for t in &mut mesh.triangles {
+        *t = t.map(|k| renumber[k as usize]);
+    }
+    // The spare position Embree reads past the last vertex (it held a vertex just now).
+    mesh.reserve_padding();
+    (n - kept) as u64
 }
 
 /// The triangles whose geometric normal (their winding's) points away from all three of their
@@ -181,5 +226,57 @@ mod tests {
             Some([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]])
         );
         mesh.validate().unwrap();
+    }
+
+    /// Vertices no triangle uses go (a stray one far off, and those only dropped triangles
+    /// used), the rest keep their order, positions and normals, and the triangles their
+    /// corners.
+    #[test]
+    fn vertices_no_triangle_uses_are_dropped_and_the_rest_renumbered() {
+        let mut mesh = TriangleMesh {
+            positions: vec![
+                [1e6, 0.0, 0.0],
+                [0.0, 0.0, 0.0],
+                [5.0, 5.0, 5.0],
+                [1.0, 0.0, 0.0],
+                [7.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [8.0, 0.0, 0.0],
+            ],
+            normals: Some((0..7).map(|i| [0.0, 0.0, 1.0 + i as f32]).collect()),
+            // The second is degenerate: vertices 4 and 6 go with it, and 0 is used by none.
+            triangles: vec![[1, 3, 5], [4, 6, 4], [5, 3, 2]],
+        };
+        let corners = |m: &TriangleMesh| -> Vec<[[f32; 3]; 3]> {
+            m.triangles
+                .iter()
+                .map(|t| t.map(|k| m.positions[k as usize]))
+                .collect()
+        };
+        let before: Vec<_> = corners(&mesh).into_iter().step_by(2).collect();
+        let mut report = MeshReport::default();
+        repair(&mut mesh, &mut report).unwrap();
+        assert_eq!(report.unused_vertices, 3);
+        assert_eq!(report.degenerate_triangles, 1);
+        assert_eq!(corners(&mesh), before);
+        assert_eq!(mesh.triangles, vec![[0, 2, 3], [3, 2, 1]]);
+        let normals = mesh.normals.as_ref().unwrap();
+        assert_eq!(
+            normals[..],
+            [
+                [0.0, 0.0, 2.0],
+                [0.0, 0.0, 3.0],
+                [0.0, 0.0, 4.0],
+                [0.0, 0.0, 6.0]
+            ]
+        );
+        // Embree's padding: one zeroed position past the last.
+        assert_eq!(mesh.positions.len(), 4);
+        assert!(mesh.positions.capacity() > 4);
+        mesh.validate().unwrap();
+        // A mesh whose vertices are all used is left as it was.
+        let kept = mesh.clone();
+        repair(&mut mesh, &mut MeshReport::default()).unwrap();
+        assert_eq!(mesh, kept);
     }
 }
