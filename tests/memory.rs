@@ -192,7 +192,7 @@ fn a_ten_million_triangle_mesh_takes_at_most_100_bytes_a_triangle_at_peak() {
 
 /// `photons` and `reference` take `render`'s BVH options, build the BVH they ask for (as their
 /// memory line says), and what they trace does not depend on them: the same photon maps to the
-/// byte, the same reference to the bit.
+/// byte, the same reference to rounding.
 #[test]
 fn photons_and_reference_take_the_bvh_options_and_trace_the_same() {
     let dir = tempfile::tempdir().unwrap();
@@ -239,7 +239,14 @@ fn photons_and_reference_take_the_bvh_options_and_trace_the_same() {
         a.iter().any(|p| p.x > 0.0),
         "a black reference proves nothing"
     );
-    assert!(a == b, "the references differ");
+    // To rounding: a ray through a shared edge may hit either triangle, and the BVHs need not
+    // pick the same one (one pixel of 6,912 differed by 2e-7 of its value).
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(p, q)| (*p - *q).abs().max_element() / p.max_element().max(1e-12))
+        .fold(0.0, f64::max);
+    assert!(worst < 1e-6, "the references differ by {worst} of a pixel's value");
 }
 
 /// What a stored photon costs at the peak of `photondiff photons`: the slope of the peak
