@@ -246,7 +246,10 @@ fn photons_and_reference_take_the_bvh_options_and_trace_the_same() {
         .zip(&b)
         .map(|(p, q)| (*p - *q).abs().max_element() / p.max_element().max(1e-12))
         .fold(0.0, f64::max);
-    assert!(worst < 1e-6, "the references differ by {worst} of a pixel's value");
+    assert!(
+        worst < 1e-6,
+        "the references differ by {worst} of a pixel's value"
+    );
 }
 
 /// What a stored photon costs at the peak of `photondiff photons`: the slope of the peak

@@ -361,6 +361,8 @@ fn broken_ascii_ply_files_name_the_element_and_line() {
         (format!("{h}0 0 0\n1 x 0\n0 1 0\n3 0 1 2\n"), "line 11: vertex 1: 'x' is not a number"),
         (format!("{h}0 0 0\nnan 0 0\n0 1 0\n3 0 1 2\n"), "line 11: vertex 1 is not finite: [NaN, 0.0, 0.0]"),
         (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1.5 2\n"), "line 13: face 0: '1.5' is not a vertex index"),
+        // A negative length was read as an empty face.
+        (format!("{h}0 0 0\n1 0 0\n0 1 0\n-2 0 1 2\n"), "line 13: face 0: '-2' is not a list length"),
         (format!("{h}0 0 0\n1 0 0\n0 1 0\n3 0 1\n"), "the file ends in face 0 of 1: truncated, or the header's counts do not match the data"),
         // A row of another length shifted every value after it (read as a flat quad's corner
         // [1, 0, 1] and a face of the next row's values, without a word).

@@ -92,7 +92,9 @@ pub(super) fn read(
                     begins_a_line(l, ended, header, &element.name, i)?;
                 }
                 line = l;
+                // A negative length was read as an empty list.
                 let n = integer(token, count)
+                    .filter(|n| *n >= 0)
                     .ok_or_else(|| at(l, format!("'{}' is not a list length", show(token))))?;
                 values.push(0.0);
                 let indices = e == layout.face && k == layout.indices;

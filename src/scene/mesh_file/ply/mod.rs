@@ -33,7 +33,7 @@ pub fn load(path: &Path, read: &dyn Fn(u64)) -> Result<(TriangleMesh, MeshReport
     if vertices >= u32::MAX as u64 {
         return Err(format!("too many vertices ({vertices}) for 32-bit indices"));
     }
-    let mut sink = Sink::new(&header, &layout);
+    let mut sink = Sink::new(&header, &layout, data_size);
     match header.format {
         Format::Ascii => ascii::read(reader, &header, &layout, &mut sink)?,
         Format::BinaryLittleEndian => {
@@ -172,14 +172,26 @@ pub(crate) struct Sink {
 }
 
 impl Sink {
-    fn new(header: &Header, layout: &Layout) -> Sink {
-        // Both counts were checked against the file's size: reserving them is safe.
+    /// Buffers for the mesh of `header`, whose data takes `data_size` bytes, reserved once.
+    fn new(header: &Header, layout: &Layout, data_size: u64) -> Sink {
+        // The vertex count was checked against the file's size: reserving it is safe.
         let vertices = header.elements[layout.vertex].count as usize;
+        // Triangles: a face counts only where its record can hold one, so that a header of
+        // 60 million empty faces (a byte each, 12 reserved each: 720 MB for a 60 MB file,
+        // an abort under a memory limit) reserves what its bytes could hold. Faces of more
+        // corners are rarer, and grow the buffer as they come.
+        let face = &header.elements[layout.face];
+        let list = &face.properties[layout.indices];
+        let per_triangle = match header.format {
+            Format::Ascii => "3 0 1 2\n".len() as u64,
+            _ => list.list.map_or(1, |count| count.size() as u64) + 3 * list.ty.size() as u64,
+        };
+        let triangles = face.count.min(data_size / per_triangle) as usize;
         Sink {
             // One more: the padding Embree reads past the last vertex.
             positions: Vec::with_capacity(vertices + 1),
             normals: layout.normal.map(|_| Vec::with_capacity(vertices)),
-            triangles: Vec::with_capacity(header.elements[layout.face].count as usize),
+            triangles: Vec::with_capacity(triangles),
             vertex_count: vertices as u64,
             deferred: Vec::new(),
             corners: Vec::new(),
@@ -282,5 +294,36 @@ impl Sink {
             triangles: self.triangles,
         };
         Ok((mesh, self.report))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The triangles reserved for a header's faces: as many as declared where the data can
+    /// hold them, no more than its bytes could hold where it cannot (empty faces).
+    #[test]
+    fn triangles_are_reserved_for_what_the_data_can_hold() {
+        let reserved = |format: &str, faces: u64, data_size: u64| {
+            let text = format!(
+                "ply\nformat {format} 1.0\nelement vertex 3\nproperty float x\n\
+                 property float y\nproperty float z\nelement face {faces}\n\
+                 property list uchar int vertex_indices\nend_header\n"
+            );
+            let header = header::read(&mut std::io::Cursor::new(text.into_bytes())).unwrap();
+            let layout = Layout::new(&header).unwrap();
+            Sink::new(&header, &layout, data_size).triangles.capacity()
+        };
+        // Triangles written in full: 3 vertices of 12 bytes, 1,000 faces of 13.
+        let whole = 36 + 1000 * 13;
+        assert_eq!(reserved("binary_little_endian", 1000, whole), 1000);
+        // 60 million empty faces in 60 MB: 60 MB / 13 bytes, not 60 million.
+        let empty = 36 + 60_000_000;
+        let got = reserved("binary_little_endian", 60_000_000, empty);
+        assert_eq!(got as u64, empty / 13);
+        // In ASCII, "3 0 1 2\n" at the least.
+        assert_eq!(reserved("ascii", 1000, 1000 * 8), 1000);
+        assert_eq!(reserved("ascii", 1000, 2000), 250);
     }
 }
