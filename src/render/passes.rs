@@ -152,6 +152,18 @@ pub enum StopReason {
 }
 
 impl StopReason {
+    /// Its name in the statistics JSON and the EXR attribute `photondiff/passes_stopped_by`
+    /// (`time_budget`; the attribute once lower-cased the variant's name, `timebudget`).
+    pub fn name(self) -> &'static str {
+        match self {
+            StopReason::Passes => "passes",
+            StopReason::TimeBudget => "time_budget",
+            StopReason::TargetNoise => "target_noise",
+            StopReason::Interrupted => "interrupted",
+            StopReason::BlackImage => "black_image",
+        }
+    }
+
     /// As the statistics' summary says it (the JSON's names, in words).
     pub fn words(self) -> &'static str {
         match self {
@@ -423,10 +435,17 @@ impl Progressive<'_> {
             trace_pass(&pass_stats);
             stats.absorb_pass(pass_stats);
             noise = NoiseEstimate::of(&sum);
-            trace::counter("noise of the mean", || {
-                serde_json::json!({"image": noise.whole.unwrap_or(0.0),
-                                   "caustic": noise.caustic.unwrap_or(0.0)})
-            });
+            // From the second pass: one pass has no noise estimate, and a 0 on the track
+            // read as a noiseless image.
+            if let Some(whole) = noise.whole {
+                trace::counter("noise of the mean", || {
+                    let mut values = serde_json::json!({ "image": whole });
+                    if let Some(caustic) = noise.caustic {
+                        values["caustic"] = caustic.into();
+                    }
+                    values
+                });
+            }
             let elapsed = start.elapsed().as_secs_f64();
             bar.set_position(sum.passes);
             let slower = self.alpha.min(self.global_alpha);
@@ -502,4 +521,19 @@ fn status(stop: &StopRules, done: u64, elapsed: f64, noise: &NoiseEstimate, alph
     }
     let left = left.map_or("? s left".to_string(), crate::util::progress::time_left);
     format!("{left}, noise {}", noise.describe())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::StopReason;
+
+    /// The EXR attribute's name for a stop is the statistics JSON's (it read `timebudget`
+    /// against the JSON's `time_budget`).
+    #[test]
+    fn a_stops_name_is_the_one_the_json_gives() {
+        use StopReason::*;
+        for stop in [Passes, TimeBudget, TargetNoise, Interrupted, BlackImage] {
+            assert_eq!(serde_json::to_value(stop).unwrap(), stop.name());
+        }
+    }
 }

@@ -64,7 +64,7 @@ fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
         ("passes", p.passes.to_string()),
         ("alpha", p.alpha.to_string()),
         ("global_alpha", p.global_alpha.to_string()),
-        ("passes_stopped_by", format!("{:?}", p.stop).to_lowercase()),
+        ("passes_stopped_by", p.stop.name().to_string()),
         ("noise_whole", opt(p.noise.whole)),
         ("noise_caustic", opt(p.noise.caustic)),
         ("noise_caustic_pixels", p.noise.caustic_pixels.to_string()),
