@@ -1026,6 +1026,25 @@ fn an_option_of_another_estimator_is_refused() {
             "--edge-grid does not apply to --estimator lighttrace (its paths reach the camera \
              from the lights: it traces no camera rays)",
         ),
+        (
+            &["--estimator", "lighttrace", "--max-depth", "3"][..],
+            "--max-depth does not apply to --estimator lighttrace (its paths reach the camera \
+             from the lights: it traces no camera rays)",
+        ),
+        (
+            &["--estimator", "lighttrace", "--area-samples", "2"][..],
+            "--area-samples does not apply to --estimator lighttrace (its paths reach the \
+             camera from the lights: it traces no camera rays)",
+        ),
+        (
+            &["--estimator", "lighttrace", "--footprint-shadow-rays", "2"][..],
+            "--footprint-shadow-rays does not apply to --estimator lighttrace (its paths reach \
+             the camera from the lights: it traces no camera rays)",
+        ),
+        (
+            &["--gather-near", "0.1"][..],
+            "--gather-near applies with --gather-rays only (final gathering)",
+        ),
     ] {
         assert_eq!(
             command_line("render", &scene, &out, args),
@@ -1081,7 +1100,7 @@ fn options_are_refused_before_the_scene_is_read() {
     let missing = dir.path().join("missing.toml");
     let out = dir.path().join("o.exr");
     let maps = dir.path().join("m.pm");
-    let cases: [(&str, &[&str], &str); 9] = [
+    let cases: [(&str, &[&str], &str); 11] = [
         (
             "render",
             &["--k", "3"],
@@ -1106,6 +1125,18 @@ fn options_are_refused_before_the_scene_is_read() {
             "render",
             &["--estimator", "lighttrace", "--tile", "0/2"],
             "--tile cannot split --estimator lighttrace (its paths reach any pixel)",
+        ),
+        (
+            "render",
+            &["--tile", "0/2", "--target-noise", "0.1"],
+            "--tile cannot take --target-noise: each part would stop after its own number of \
+             passes; give the parts --passes N",
+        ),
+        (
+            "render",
+            &["--tile", "0/2", "--time-budget", "60"],
+            "--tile cannot take --time-budget: each part would stop after its own number of \
+             passes; give the parts --passes N",
         ),
         (
             "render",

@@ -89,6 +89,20 @@ pub(super) fn tile(args: &RenderArgs, kind: EstimatorKind) -> Result<Option<Tile
             "--tile cannot split --estimator lighttrace (its paths reach any pixel)".into(),
         );
     }
+    // Each part would stop on its own noise or clock, with its own count of passes, and
+    // `merge` refuses parts of different counts only once all of them are done (or, where
+    // the counts happen to agree, says the whole met a target it never measured).
+    for (given, option) in [
+        (args.target_noise.is_some(), "--target-noise"),
+        (args.time_budget.is_some(), "--time-budget"),
+    ] {
+        if given {
+            return Err(format!(
+                "--tile cannot take {option}: each part would stop after its own number of \
+                 passes; give the parts --passes N"
+            ));
+        }
+    }
     Ok(Some(tile))
 }
 
@@ -165,7 +179,13 @@ pub(super) fn options(
         }
     }
     if kind == EstimatorKind::Lighttrace {
-        for (id, option) in [("view_grid", "--view-grid"), ("edge_grid", "--edge-grid")] {
+        for (id, option) in [
+            ("view_grid", "--view-grid"),
+            ("edge_grid", "--edge-grid"),
+            ("max_depth", "--max-depth"),
+            ("area_samples", "--area-samples"),
+            ("footprint_shadow_rays", "--footprint-shadow-rays"),
+        ] {
             if given(id) {
                 return Err(format!(
                     "{option} does not apply to --estimator lighttrace (its paths reach the \
@@ -188,6 +208,10 @@ pub(super) fn options(
             "--gather-near must be at least 0 and at most {MAX_NEAR_REACH}, got {}",
             crate::cli::shown(args.gather_near)
         ));
+    }
+    // Read by final gathering alone (it rendered the same image, bit for bit, without it).
+    if given("gather_near") && args.gather_rays == 0 {
+        return Err("--gather-near applies with --gather-rays only (final gathering)".into());
     }
     Ok(())
 }
