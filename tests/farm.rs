@@ -277,6 +277,8 @@ fn merge_refuses_foreign_overlapping_and_incomplete_parts() {
     let a: Vec<PathBuf> = (0..4).map(|i| tile(&scene_a, d, i, 4, &[])).collect();
     let b0 = tile(&scene_b, &d.join("b"), 0, 4, &[]);
     let seed = tile(&scene_a, &d.join("seed"), 1, 4, &["--seed", "7"]);
+    // Robust traversal changes hits on edges: parts with and without it are not one image.
+    let robust = tile(&scene_a, &d.join("robust"), 1, 4, &["--bvh-robust"]);
     let seven = tile(&scene_a, &d.join("seven"), 0, 7, &[]);
     let out = d.join("merged.exr");
     let merge = |parts: &[&PathBuf]| {
@@ -306,6 +308,15 @@ fn merge_refuses_foreign_overlapping_and_incomplete_parts() {
         format!(
             "photondiff: error: {0} has other settings than {1}: photondiff/seed is 7 in {0}, 0 in {1}",
             s(&seed),
+            s(&a[0])
+        )
+    );
+    let e = merge(&[&a[0], &robust, &a[2], &a[3]]);
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {0} has other settings than {1}: photondiff/bvh_robust is true in {0}, false in {1}",
+            s(&robust),
             s(&a[0])
         )
     );

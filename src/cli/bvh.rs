@@ -33,6 +33,12 @@ pub struct BvhArgs {
 }
 
 impl BvhArgs {
+    /// Whether `--bvh-robust` was given: the one BVH option that can change an image (hits on
+    /// edges), recorded in a render's attributes so that `merge` refuses parts that differ.
+    pub fn robust(&self) -> bool {
+        self.bvh_robust
+    }
+
     /// The settings these options ask for, for a scene of `triangles` unique triangles (which
     /// decides whether the BVH is compact where neither flag says:
     /// [`BvhSettings::for_triangles`]).

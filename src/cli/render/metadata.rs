@@ -42,6 +42,7 @@ pub(super) fn exr_metadata(
         ),
         ("seed", args.seed.to_string()),
         ("embree", photondiff::embree::BACKEND.to_string()),
+        ("bvh_robust", args.bvh.robust().to_string()),
         ("max_depth", args.max_depth.to_string()),
         ("area_samples", args.area_samples.to_string()),
         ("threads", stats.threads.to_string()),
