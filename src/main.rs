@@ -26,7 +26,8 @@ enum Command {
     /// Make a scene's reference image: direct light supersampled, the rest light-traced, with
     /// two independent halves for its noise.
     Reference(cli::reference::ReferenceArgs),
-    /// Join the parts of a split render (`render --tile I/N`) into the whole image.
+    /// Join the parts of a split render (`render --tile I/N`, `render --pass-range A..B`) into
+    /// the whole image.
     Merge(cli::merge::MergeArgs),
     /// Trace a scene's photon maps once and write them for `render --photon-maps`.
     Photons(cli::photons::PhotonsArgs),

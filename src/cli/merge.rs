@@ -1,4 +1,5 @@
-//! `photondiff merge`: the parts of a split render (`render --tile I/N`) into the whole image.
+//! `photondiff merge`: the parts of a split render (`render --tile I/N`, `render --pass-range
+//! A..B`) into the whole image.
 
 use super::create_parent;
 use photondiff::render::merge::merge;
@@ -7,7 +8,8 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct MergeArgs {
-    /// The parts: EXR files written by `photondiff render --tile I/N`, one per tile, any order.
+    /// The parts: EXR files written by `photondiff render --tile I/N` (one per tile) or
+    /// `--pass-range A..B` (ranges that together cover the passes), in any order.
     #[arg(required = true, value_name = "PARTS")]
     parts: Vec<PathBuf>,
     /// The whole image (linear float RGB EXR with the parts' settings and the statistics of the

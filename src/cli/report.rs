@@ -26,8 +26,8 @@ pub struct ReportArgs {
         default_value = "out/report"
     )]
     output: PathBuf,
-    /// Scene file the images were rendered from: its regions of interest (floor = pixels whose
-    /// camera ray first hits a diffuse surface, caustic, contour, shadow = floor outside the
+    /// Scene file the images were rendered from: its regions of interest (floor = pixels each
+    /// of whose camera rays on a 9 x 9 lattice first hits a diffuse surface, caustic, contour, shadow = floor outside the
     /// caustic where every point and spot light is blocked; as in the timing table) are
     /// measured and cropped. Its camera must have the reference's size.
     #[arg(long, value_name = "SCENE.toml")]
