@@ -568,6 +568,18 @@ fn pass_range_reports(scene: &Path, d: &Path, merge_args: &[String]) {
     ok(&args);
     let p = &read(&merged)["progressive"];
     assert_eq!((&p["passes"], p.get("pass_range")), (&4.into(), None));
+    // A range of every pass traces the camera rays the whole run does: the edge pixels found
+    // once, not once a pass (502,568 camera rays against 349,096 for 8 passes).
+    let camera_rays = |extra: &[&str]| {
+        let json = d.join("rays.json");
+        let mut args = vec!["render", s(scene), "-o", s(&image), "--quiet"];
+        args.extend(PHOTONS);
+        args.extend(["--passes", "4", "--stats-json", s(&json)]);
+        args.extend(extra);
+        ok(&args);
+        read(&json)["rays"]["camera"].as_u64().unwrap()
+    };
+    assert_eq!(camera_rays(&["--pass-range", "0..4"]), camera_rays(&[]));
 }
 
 #[test]

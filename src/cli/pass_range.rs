@@ -59,6 +59,9 @@ pub fn render(
     stats: &mut Stats,
 ) -> Result<PassSum, String> {
     let start = Instant::now();
+    // The edge pixels once for the range, as a whole run finds them once (each pass found
+    // them again: 502,568 camera rays against 349,096 for 8 passes).
+    let progressive = &progressive.with_edges_found(stats);
     let camera = &progressive.scene.camera;
     let (width, height) = progressive.render.film_size(camera.width, camera.height);
     let mut sum = PassSum::new(width, height);
