@@ -570,16 +570,36 @@ fn pass_range_reports(scene: &Path, d: &Path, merge_args: &[String]) {
     assert_eq!((&p["passes"], p.get("pass_range")), (&4.into(), None));
     // A range of every pass traces the camera rays the whole run does: the edge pixels found
     // once, not once a pass (502,568 camera rays against 349,096 for 8 passes).
-    let camera_rays = |extra: &[&str]| {
+    let stats = |extra: &[&str]| {
         let json = d.join("rays.json");
         let mut args = vec!["render", s(scene), "-o", s(&image), "--quiet"];
         args.extend(PHOTONS);
         args.extend(["--passes", "4", "--stats-json", s(&json)]);
         args.extend(extra);
         ok(&args);
-        read(&json)["rays"]["camera"].as_u64().unwrap()
+        read(&json)
     };
-    assert_eq!(camera_rays(&["--pass-range", "0..4"]), camera_rays(&[]));
+    let whole = stats(&[]);
+    let camera_rays = |s: &serde_json::Value| s["rays"]["camera"].as_u64().unwrap();
+    assert_eq!(
+        camera_rays(&stats(&["--pass-range", "0..4"])),
+        camera_rays(&whole)
+    );
+    // The merged ranges' photon maps are the whole run's: counts over all 4 passes (not the
+    // first-named part's 3), the power their mean; the seconds a pass weighed by passes.
+    let merged = read(&merged);
+    for (m, w) in merged["photon_maps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(whole["photon_maps"].as_array().unwrap())
+    {
+        for key in ["class", "emitted", "stored", "rays", "asked", "cap_reached"] {
+            assert_eq!(m[key], w[key], "{key}: {m} against {w}");
+        }
+        let (a, b) = (m["power"].as_f64().unwrap(), w["power"].as_f64().unwrap());
+        assert!((a - b).abs() <= 1e-9 * b.abs(), "power {a} against {b}");
+    }
 }
 
 #[test]
