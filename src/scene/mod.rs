@@ -347,7 +347,8 @@ impl Scene {
     /// Offset of secondary ray origins off a surface, along its normal: far above Embree's
     /// single-precision error at the scene's scale, far below any feature.
     ///
-    /// 2e-5 of the scene's extent, but at most 1e-3 of its smallest object's size: under a
+    /// 2e-5 of the scene's extent, but at most 1e-3 of its smallest object's size (and 1e-2 of
+    /// the thinnest side of a glass mesh's box): under a
     /// floor 10^5 across, 2e-5 of the extent is 2.8, and rays leaving a sphere of radius 1
     /// stepped over its far side and its shadow (the sphere vanished). Never below 5e-7 of
     /// the largest coordinate (about ten single-precision steps there), where Embree's own
@@ -368,6 +369,18 @@ impl Scene {
             .map(|[a, b]| (*b - *a).length())
             .filter(|d| *d > 0.0)
             .fold(f64::INFINITY, f64::min);
+        // A glass pane's rays must not start past its far side: the thinnest side of a glass
+        // mesh's box counts too (a slab 2e-4 thick under an offset of 3.4e-4 was stepped
+        // through, its shadow black in a grid, light-traced references alike). Its box only:
+        // a pane turned off the axes keeps the offset of its box.
+        let thinnest_glass = self
+            .meshes
+            .iter()
+            .zip(&boxes)
+            .filter(|(m, _)| matches!(m.material, Material::Glass { .. }))
+            .map(|(_, [a, b])| (*b - *a).min_element())
+            .filter(|d| *d > 0.0)
+            .fold(f64::INFINITY, f64::min);
         let in_frames = self
             .meshes
             .iter()
@@ -384,6 +397,7 @@ impl Scene {
         let largest_coordinate = lo.abs().max(hi.abs()).max_element().max(in_frames);
         (2e-5 * extent)
             .min(1e-3 * smallest)
+            .min(1e-2 * thinnest_glass)
             .max(5e-7 * largest_coordinate)
     }
 
