@@ -302,9 +302,15 @@ impl Scene {
     /// World-space bounds `[lo, hi]` of each of `self.meshes` (an instance's are its mesh's
     /// box transformed, a little larger than tight), each mesh's positions read once.
     pub fn mesh_bounds(&self) -> Vec<[DVec3; 2]> {
+        self.placed_bounds(&self.local_bounds())
+    }
+
+    /// World-space bounds of each of `self.meshes` from `local`, its bounds in its own frame
+    /// ([`Scene::local_bounds`]).
+    fn placed_bounds(&self, local: &[[DVec3; 2]]) -> Vec<[DVec3; 2]> {
         self.meshes
             .iter()
-            .zip(self.local_bounds())
+            .zip(local.iter().copied())
             .map(|(m, box_)| match m.transform {
                 None => box_,
                 Some(t) => bounds((0..8).map(|i| {
@@ -358,7 +364,8 @@ impl Scene {
     /// placed back at the world's was tested with the world's offset, and its lit side came
     /// out in bands of acne at 55% of its light).
     pub fn ray_epsilon(&self) -> f64 {
-        let boxes = self.mesh_bounds();
+        let local = self.local_bounds();
+        let boxes = self.placed_bounds(&local);
         let [lo, hi] = bounds(boxes.iter().flatten().copied());
         if lo.x > hi.x {
             return 2e-5;
@@ -384,7 +391,7 @@ impl Scene {
         let in_frames = self
             .meshes
             .iter()
-            .zip(self.local_bounds())
+            .zip(&local)
             .filter_map(|(m, [lo, hi])| {
                 let t = m.transform?;
                 let stretch = [t.matrix3.x_axis, t.matrix3.y_axis, t.matrix3.z_axis]
