@@ -314,14 +314,7 @@ pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
             )
         })?;
         reports.extend(value.get("progressive").filter(|p| p.is_object()).cloned());
-        if let Some(range) = value["progressive"]["pass_range"].as_array() {
-            let passes = match (range.first(), range.get(1)) {
-                (Some(a), Some(b)) => b
-                    .as_u64()
-                    .unwrap_or(0)
-                    .saturating_sub(a.as_u64().unwrap_or(0)),
-                _ => 0,
-            };
+        if let Some(passes) = range_passes(&value["progressive"]) {
             range_maps.push((value["photon_maps"].clone(), passes));
         }
         total = Some(match total {
@@ -339,6 +332,15 @@ pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
         t["photon_maps"] = merge_range_maps(&range_maps);
     }
     Ok(total.unwrap_or(Value::Null))
+}
+
+/// The number of passes of a pass-range part, from its progressive report's `pass_range`
+/// `[A, B]`; `None` for a part that is not a range.
+fn range_passes(report: &Value) -> Option<u64> {
+    match report["pass_range"].as_array()?.as_slice() {
+        [a, b] => Some(b.as_u64()?.saturating_sub(a.as_u64()?)),
+        _ => None,
+    }
 }
 
 /// The photon maps' figures of pass-range parts (each part's maps with its number of passes),
@@ -391,16 +393,7 @@ fn merge_progressive(reports: &[Value]) -> Value {
     // are 0.65 s a pass, not 0.5); tiles all render every pass.
     let weights: Vec<f64> = reports
         .iter()
-        .map(|r| match r["pass_range"].as_array() {
-            Some(range) if range.len() == 2 => {
-                let (a, b) = (
-                    range[0].as_f64().unwrap_or(0.0),
-                    range[1].as_f64().unwrap_or(0.0),
-                );
-                (b - a).max(0.0)
-            }
-            _ => 1.0,
-        })
+        .map(|r| range_passes(r).map_or(1.0, |n| n as f64))
         .collect();
     let seconds: Vec<(f64, f64)> = reports
         .iter()
