@@ -17,7 +17,8 @@
 //! differed by 3.7e-6 of the mean radiance, and the same binaries of the commit that had passed
 //! here before gave the same), so the check allows what such rounding can do and no more: real
 //! numbers in the statistics within [`STATS_TOLERANCE`] of each other (relative), and at most
-//! [`MAX_PIXELS`] pixels differing by at most [`PIXEL_TOLERANCE`] times the mean radiance. A hit
+//! [`MAX_PIXELS`] pixels differing by at most [`PIXEL_TOLERANCE`] times the mean radiance, and
+//! the few counts that such rounding decides ([`ROUNDED_COUNTS`]) within a handful. A hit
 //! on another triangle, a shadow ray blocked in one build only, or a photon stored in one only
 //! changes a count, or a pixel by far more.
 
@@ -34,6 +35,13 @@ const PIXEL_TOLERANCE: f64 = 1e-5;
 
 /// Most pixels that may differ at all.
 const MAX_PIXELS: usize = 10;
+
+/// Counts decided by `f64` arithmetic on the same hits rather than by the hits themselves, and
+/// how far they may differ: whether a found photon's weight comes out above zero (a photon on
+/// its footprint's edge). Seen 2026-11-27 on a machine without AVX-512: `gathers/photons_used`
+/// 6,532,352 against 6,532,351, every other count equal, one pixel by 6e-7 of the mean
+/// radiance; the binaries of the commit that had passed CI gave the same there.
+const ROUNDED_COUNTS: &[(&str, u64)] = &[("stats/gathers/photons_used", 10)];
 
 fn stats(path: &str) -> Result<Value, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
@@ -84,6 +92,18 @@ fn differences(prefix: &str, a: &Value, b: &Value, out: &mut Vec<String>) {
             let close = (u - v).abs() <= STATS_TOLERANCE * u.abs().max(v.abs());
             if !close {
                 out.push(format!("{prefix}: {a} != {b}"));
+            }
+        }
+        (Value::Number(x), Value::Number(y))
+            if ROUNDED_COUNTS.iter().any(|(p, _)| *p == prefix) =>
+        {
+            let most = ROUNDED_COUNTS
+                .iter()
+                .find(|(p, _)| *p == prefix)
+                .map_or(0, |c| c.1);
+            let (u, v) = (x.as_u64().unwrap_or(0), y.as_u64().unwrap_or(u64::MAX));
+            if u.abs_diff(v) > most {
+                out.push(format!("{prefix}: {a} != {b} (more than {most} apart)"));
             }
         }
         _ if a != b => out.push(format!("{prefix}: {a} != {b}")),
@@ -140,7 +160,8 @@ fn run(args: &[String]) -> Result<(), String> {
         Err(format!(
             "the two backends' renders disagree (allowed: statistics' real numbers within \
              {STATS_TOLERANCE:e} of each other, at most {MAX_PIXELS} pixels within \
-             {PIXEL_TOLERANCE:e} of the mean radiance)"
+             {PIXEL_TOLERANCE:e} of the mean radiance, the counts rounding decides within \
+             {ROUNDED_COUNTS:?})"
         ))
     }
 }
