@@ -55,29 +55,33 @@ impl BvhArgs {
         }
     }
 
-    /// Builds `scene`'s BVH (read from `path`) as these options ask ([`build_bvh`]); the
-    /// device, the scene and the settings it was built with.
+    /// Builds `scene`'s BVH (read from `path`) as these options ask ([`build_bvh`]) on at
+    /// most `threads` threads (the command's `--threads`; 0 for every core); the device, the
+    /// scene and the settings it was built with.
     pub fn build(
         &self,
         scene: &Scene,
         path: &Path,
+        threads: usize,
         progress: bool,
     ) -> Result<(Device, embree::Scene, BvhSettings), String> {
         let settings = self.settings(scene.triangle_count());
-        let (device, built) = build_bvh(scene, path, settings, progress)?;
+        let (device, built) = build_bvh(scene, path, settings, threads, progress)?;
         Ok((device, built, settings))
     }
 }
 
-/// Builds `scene`'s BVH (read from `path`) with `settings` on a new Embree device, its
-/// progress a bar (`BVH`) when `progress`: a large mesh's build takes seconds to minutes.
+/// Builds `scene`'s BVH (read from `path`) with `settings` on a new Embree device of at most
+/// `threads` build threads, its progress a bar (`BVH`) when `progress`: a large mesh's build
+/// takes seconds to minutes.
 fn build_bvh(
     scene: &Scene,
     path: &Path,
     settings: BvhSettings,
+    threads: usize,
     progress: bool,
 ) -> Result<(Device, embree::Scene), String> {
-    let device = Device::new().map_err(|e| e.to_string())?;
+    let device = Device::with_threads(threads).map_err(|e| e.to_string())?;
     let bar = photondiff::util::progress::bar(progress, 1000, "BVH");
     let report = bar.clone();
     // Embree's threads report at once, not always in order: the bar only moves on.

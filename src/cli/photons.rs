@@ -28,7 +28,8 @@ pub struct PhotonsArgs {
     /// Seed of the photons' random streams (as `render --seed`).
     #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::whole::<u64>)]
     seed: u64,
-    /// Worker threads (0 = one per core; at most 1024); the maps are identical for any count.
+    /// Worker threads and Embree's BVH build threads (0 = one per core; at most 1024); the
+    /// maps are identical for any count.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::whole::<usize>)]
     threads: usize,
     #[command(flatten)]
@@ -70,7 +71,8 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         super::load_scene(&args.scene, !args.quiet, &outputs)
     })?;
     let (device, embree, bvh) = stats.time("build BVH", || {
-        args.bvh.build(&scene, &args.scene, !args.quiet)
+        args.bvh
+            .build(&scene, &args.scene, args.threads, !args.quiet)
     })?;
     stats.memory = MemoryStats::after_build(&scene, &device, bvh);
     super::warn_photon_memory(

@@ -38,7 +38,7 @@ pub struct ReferenceArgs {
           conflicts_with = "merge", action = clap::ArgAction::Set,
           value_parser = clap::value_parser!(u32).range(1..=64))]
     direct_grids: Vec<u32>,
-    /// Worker threads (0 = one per core; at most 1024).
+    /// Worker threads and Embree's BVH build threads (0 = one per core; at most 1024).
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::whole::<usize>)]
     threads: usize,
     /// Seed of the light paths. References of one scene made with the same settings and
@@ -349,7 +349,14 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         return Err("--light-paths and --caustic-paths cannot both be 0".into());
     }
     super::start_trace(args.trace.as_deref())?;
+    // Every stage runs on this pool, a merge's too (its noise per region is computed in
+    // parallel): `--threads 1` holds for the whole run.
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()
+        .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let mut stats = Stats::of_this_build();
+    stats.threads = pool.current_num_threads();
     // What needs no scene is checked (and the parts read) before the scene is read: a large
     // one takes seconds to load and build.
     let parts = match args.merge.is_empty() {
@@ -360,7 +367,8 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         super::load_scene(&args.scene, !args.quiet, &outputs)
     })?;
     let (device, embree, bvh) = stats.time("build BVH", || {
-        args.bvh.build(&scene, &args.scene, !args.quiet)
+        args.bvh
+            .build(&scene, &args.scene, args.threads, !args.quiet)
     })?;
     stats.memory = MemoryStats::after_build(&scene, &device, bvh);
     let hash = hex(hash);
@@ -380,12 +388,8 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
             meta,
             seconds: None,
         };
-        return write(args, &scene, &embree, &made, stats);
+        return pool.install(|| write(args, &scene, &embree, &made, stats));
     }
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads)
-        .build()
-        .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let settings = ReferenceSettings {
         light_paths: args.light_paths,
         caustic_paths: args.caustic_paths,
@@ -422,7 +426,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         ],
         seconds: Some(start.elapsed().as_secs_f64()),
     };
-    write(args, &scene, &embree, &made, stats)
+    pool.install(|| write(args, &scene, &embree, &made, stats))
 }
 
 /// A reference made or merged, ready to be written.

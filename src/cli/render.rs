@@ -55,7 +55,7 @@ pub struct RenderArgs {
     /// pixels); 1 (off) otherwise; at most --view-grid is off.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
     edge_grid: Option<u32>,
-    /// Worker threads (0 = one per core; at most 1024).
+    /// Worker threads and Embree's BVH build threads (0 = one per core; at most 1024).
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::whole::<usize>)]
     threads: usize,
     /// Seed of every random stream; the same seed gives a bit-identical image on any thread count.
@@ -275,7 +275,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     stats.mesh_repairs = scene.mesh_report();
     let (device, embree, bvh) = stats.time("build BVH", || {
-        args.bvh.build(&scene, &args.scene, !args.quiet)
+        args.bvh
+            .build(&scene, &args.scene, args.threads, !args.quiet)
     })?;
     stats.memory = MemoryStats::after_build(&scene, &device, bvh);
     let options = RenderOptions::default()

@@ -133,10 +133,24 @@ impl Device {
         }
     }
 
-    /// Creates a device with Embree's default configuration.
+    /// Creates a device with Embree's default configuration (its builds use every core).
     pub fn new() -> Result<Self, EmbreeError> {
-        // SAFETY: a null config string asks for the defaults.
-        let raw = unsafe { ffi::rtcNewDevice(std::ptr::null()) };
+        Self::with_threads(0)
+    }
+
+    /// Creates a device whose BVH builds use at most `threads` threads (0: every core, Embree's
+    /// default). Embree starts its own build threads, apart from photondiff's worker threads:
+    /// without this a run asked for one thread (a cluster job given one core) built its BVH
+    /// on all of them.
+    pub fn with_threads(threads: usize) -> Result<Self, EmbreeError> {
+        let config = std::ffi::CString::new(match threads {
+            0 => String::new(),
+            n => format!("threads={n}"),
+        })
+        .expect("no NUL in a formatted number");
+        // SAFETY: `config` is a NUL-terminated string that outlives the call; an empty one
+        // asks for the defaults.
+        let raw = unsafe { ffi::rtcNewDevice(config.as_ptr()) };
         if raw.is_null() {
             // SAFETY: a null device asks for the error of the last failed device creation.
             let code = unsafe { ffi::rtcGetDeviceError(std::ptr::null_mut()) };
