@@ -360,6 +360,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         args.photons.caustic_photons.is_some(),
         args.photons.global_photons.is_some(),
     );
+    // The EXR's statistics hold the peak so far (the images' writing is not in it); the
+    // JSON and the summary, the run's.
+    stats.memory.record_peak();
     let mut metadata = metadata::exr_metadata(
         args,
         kind,

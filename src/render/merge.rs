@@ -295,14 +295,18 @@ fn copy_window(part: &Film, window: Window, film: &mut Film) {
 /// The statistics of the whole: every count and time summed over the parts (stage times are
 /// then the seconds of all processes together, not wall-clock time); the light tracer's noise
 /// from the first part; the photon maps' figures from the first part where the parts are
-/// tiles (each traced the same maps), summed over the parts where they are pass ranges (each
-/// traced its own passes' maps: [`merge_range_maps`]; the first part's alone said 20,000 or
-/// 40,000 caustic photons of a 60,000-photon render, by the order the parts were named); the
-/// progressive report as [`merge_progressive`] says.
+/// tiles (each traced the same maps), summed over the pass ranges of one tile where they are
+/// pass ranges (each traced its own passes' maps, every tile the same: [`merge_range_maps`];
+/// the first part's alone said 20,000 or 40,000 caustic photons of a 60,000-photon render, by
+/// the order the parts were named, and summed over two tiles' ranges 120,000); the scene's
+/// memory and mesh repairs as [`merge_memory`] says; the progressive report as
+/// [`merge_progressive`] says.
 pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
     let mut total: Option<Value> = None;
     let mut reports = Vec::new();
     let mut range_maps = Vec::new();
+    let mut memories = Vec::new();
+    let tile = |part: &Part| part.metadata.get("photondiff/tile").cloned();
     for part in parts {
         let Some(text) = part.metadata.get("photondiff/stats") else {
             continue;
@@ -315,8 +319,9 @@ pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
         })?;
         reports.extend(value.get("progressive").filter(|p| p.is_object()).cloned());
         if let Some(passes) = range_passes(&value["progressive"]) {
-            range_maps.push((value["photon_maps"].clone(), passes));
+            range_maps.push((tile(part), value["photon_maps"].clone(), passes));
         }
+        memories.extend(value.get("memory").filter(|m| m.is_object()).cloned());
         total = Some(match total {
             None => value,
             Some(mut t) => {
@@ -329,9 +334,39 @@ pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
         t["progressive"] = merge_progressive(&reports);
     }
     if let Some(t) = total.as_mut().filter(|_| range_maps.len() == parts.len()) {
-        t["photon_maps"] = merge_range_maps(&range_maps);
+        // Every tile traced the same maps for its ranges: one tile's ranges hold them all.
+        let first = range_maps[0].0.clone();
+        let one_tile: Vec<(Value, u64)> = range_maps
+            .into_iter()
+            .filter(|(tile, _, _)| *tile == first)
+            .map(|(_, maps, passes)| (maps, passes))
+            .collect();
+        t["photon_maps"] = merge_range_maps(&one_tile);
+    }
+    if let Some(t) = total.as_mut().filter(|_| !memories.is_empty()) {
+        t["memory"] = merge_memory(&memories);
     }
     Ok(total.unwrap_or(Value::Null))
+}
+
+/// The memory of the whole from the parts' `memories`: each part loaded the same scene and
+/// built the same BVH, so its sizes (triangles, mesh and BVH bytes, the BVH's settings) are the
+/// first part's, not their sum (four tiles read four times the triangles); the peaks (the BVH
+/// build's, the process's resident memory) the largest part's, the most one machine needed.
+fn merge_memory(memories: &[Value]) -> Value {
+    let mut memory = memories[0].clone();
+    for key in ["bvh_build_peak_bytes", "peak_resident_bytes"] {
+        let most = memories.iter().filter_map(|m| m[key].as_u64()).max();
+        memory[key] = most.unwrap_or(0).into();
+    }
+    let (peak, triangles) = (
+        memory["peak_resident_bytes"].as_u64(),
+        memory["triangles"].as_u64(),
+    );
+    if let (Some(peak), Some(triangles)) = (peak, triangles.filter(|&t| t > 0)) {
+        memory["peak_bytes_per_triangle"] = (peak as f64 / triangles as f64).into();
+    }
+    memory
 }
 
 /// The number of passes of a pass-range part, from its progressive report's `pass_range`
@@ -415,7 +450,12 @@ fn merge_progressive(reports: &[Value]) -> Value {
 
 /// Adds the numbers of `b` into `a`, field by field; stages are added by name.
 fn add(a: &mut Value, b: &Value, key: &str) {
-    if matches!(key, "photon_maps" | "reference_noise" | "progressive") {
+    // Not counts of work: each has its own rule (above), or describes the one scene every
+    // part loaded (its mesh repairs: four tiles did not repair four times the triangles).
+    if matches!(
+        key,
+        "photon_maps" | "reference_noise" | "progressive" | "memory" | "mesh_repairs"
+    ) {
         return;
     }
     match (a, b) {
@@ -499,6 +539,48 @@ mod tests {
         assert_eq!(p["stop"], "passes");
         assert!(p["noise"].is_null());
         assert!(p.get("pass_range").is_none(), "{p}");
+    }
+
+    /// Two tiles, each rendered as two pass ranges: the scene's memory and repairs are one
+    /// part's (not four times the triangles), the peaks the largest, and the photon maps the sum
+    /// over one tile's ranges (every tile traced the same maps: not twice them).
+    #[test]
+    fn merged_statistics_of_tiles_in_ranges_count_the_scene_and_the_maps_once() {
+        let stats = |range: [u64; 2], stored: u64, peak: u64| {
+            serde_json::json!({
+                "rays": {"camera": 10},
+                "memory": {"triangles": 100, "mesh_bytes": 2400, "bvh_bytes": 5000,
+                           "bvh_build_peak_bytes": peak / 2, "peak_resident_bytes": peak,
+                           "peak_bytes_per_triangle": peak as f64 / 100.0},
+                "mesh_repairs": {"degenerate_triangles": 3},
+                "photon_maps": [{"class": "Caustic", "stored": stored, "power": 1.0}],
+                "progressive": {"passes": 3, "pass_range": range}
+            })
+            .to_string()
+        };
+        let parts = [
+            ("0/2", [0, 1], 10, 1000),
+            ("0/2", [1, 3], 20, 3000),
+            ("1/2", [0, 1], 10, 2000),
+            ("1/2", [1, 3], 20, 1000),
+        ]
+        .map(|(tile, range, stored, peak)| {
+            let stats = stats(range, stored, peak);
+            part("p.exr", &[("tile", tile), ("stats", &stats)])
+        });
+        let merged = merge_stats(&parts).unwrap();
+        assert_eq!(merged["rays"]["camera"], 40);
+        let m = &merged["memory"];
+        assert_eq!(
+            (&m["triangles"], &m["mesh_bytes"]),
+            (&100.into(), &2400.into())
+        );
+        assert_eq!(m["bvh_bytes"], 5000);
+        assert_eq!(m["peak_resident_bytes"], 3000);
+        assert_eq!(m["bvh_build_peak_bytes"], 1500);
+        assert_eq!(m["peak_bytes_per_triangle"], 30.0);
+        assert_eq!(merged["mesh_repairs"]["degenerate_triangles"], 3);
+        assert_eq!(merged["photon_maps"][0]["stored"], 30);
     }
 
     #[test]
