@@ -102,6 +102,68 @@ fn obj_negative_indices_crlf_bom_and_continuations() {
     assert_eq!(m.report.skipped_lines_points, 2);
 }
 
+/// A backslash that ends a comment is the comment's: the line after it stands (a Windows path
+/// in an exporter's comment swallowed the first vertex, and every face moved by one).
+#[test]
+fn obj_a_comment_ending_in_a_backslash_does_not_continue() {
+    let m = ok(
+        "comment.obj",
+        "# exported from C:\\models\\\nv 0 0 0\nv 1 0 0 # a corner \\\nv 0 1 0\nf 1 2 \\\n 3\n\
+         v 5 5 5 \\\n  \n",
+    );
+    // The last vertex, continued onto a blank line, is read (and dropped: no face uses it).
+    assert_eq!(m.report.unused_vertices, 1);
+    assert_eq!(
+        m.mesh.positions,
+        vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]
+    );
+    assert_eq!(m.mesh.triangles, vec![[0, 1, 2]]);
+}
+
+/// A scene's mesh given as a named pipe is refused at once: the scene's hash read it a second
+/// time, which waited for a writer for ever.
+#[test]
+fn a_scene_mesh_that_is_a_named_pipe_is_refused_not_waited_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let fifo = dir.path().join("pipe.obj");
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    let scene = dir.path().join("s.toml");
+    std::fs::write(
+        &scene,
+        "[camera]\neye = [0, 0, 5]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n\
+         width = 8\nheight = 8\n[materials.m]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
+         [[shapes]]\ntype = \"mesh\"\nfile = \"pipe.obj\"\nmaterial = \"m\"\n",
+    )
+    .unwrap();
+    // One writer, as a shell's pipe gives; without the check the second read never returned.
+    let writer = fifo.clone();
+    std::thread::spawn(move || {
+        let _ = std::fs::write(writer, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    });
+    let (send, receive) = std::sync::mpsc::channel();
+    let path = scene.clone();
+    std::thread::spawn(move || {
+        let loaded = photondiff::scene::file::load_scene_hashed(&path, |_, _| {});
+        let _ = send.send(loaded.map(|_| ()).map_err(|e| e.to_string()));
+    });
+    let result = receive
+        .recv_timeout(std::time::Duration::from_secs(60))
+        .expect("loading the scene hung on its named pipe");
+    assert_eq!(
+        result.unwrap_err(),
+        format!(
+            "{}: shapes[0].file: {}: is a named pipe: a scene's mesh file is read twice (loaded, then hashed for \
+             the scene's content hash), which a pipe cannot give; write it to a file",
+            scene.display(),
+            fifo.display()
+        )
+    );
+}
+
 /// Exporters write edges and loose vertices as faces of two, one or no vertices: they are not
 /// surfaces, so they are skipped and counted (a whole mesh was refused for one of them).
 #[test]

@@ -201,6 +201,17 @@ impl<'a> MeshBytes<'a> {
 
     /// Loads the mesh at `path` (its report as it reads).
     fn load(&self, path: &Path) -> Result<LoadedMesh, String> {
+        // A scene's mesh is read twice: loaded here, then hashed for the scene's content hash
+        // (`load_scene_hashed`). A named pipe gives its bytes once: the second read waited for
+        // a writer for ever. (`info` reads a mesh given alone once, and takes a pipe.)
+        use std::os::unix::fs::FileTypeExt;
+        if std::fs::metadata(path).is_ok_and(|m| m.file_type().is_fifo()) {
+            return Err(format!(
+                "{}: is a named pipe: a scene's mesh file is read twice (loaded, then hashed \
+                 for the scene's content hash), which a pipe cannot give; write it to a file",
+                path.display()
+            ));
+        }
         let before = self.done.get();
         let loaded = load_mesh_reporting(path, &|read| (self.progress)(before + read, self.total))?;
         let size = std::fs::metadata(path).map_or(0, |m| m.len());

@@ -3,6 +3,7 @@
 //! maps, parts of a split render) carry it, so that they are never combined with another scene
 //! or another version of the same one; moving or renaming the files does not change it.
 
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
@@ -116,17 +117,49 @@ pub fn scene_hash_with(
     scene: &[u8],
     meshes: Vec<(String, PathBuf)>,
 ) -> Result<u64, String> {
-    let read = |p: &Path| {
-        crate::util::input::read(p).map_err(|e| format!("{}: cannot read: {e}", p.display()))
-    };
     let mut hash = fnv1a(FNV_OFFSET, &(scene.len() as u64).to_le_bytes());
     hash = fnv1a(hash, scene);
     for (field, mesh) in meshes {
         // Named with the scene and the field: its bare path said nothing of where it came
         // from.
-        let bytes = read(&mesh).map_err(|e| format!("{}: {field}: {e}", path.display()))?;
-        hash = fnv1a(hash, &(bytes.len() as u64).to_le_bytes());
-        hash = fnv1a(hash, &bytes);
+        hash = hash_file(hash, &mesh).map_err(|e| {
+            format!(
+                "{}: {field}: {}: cannot read: {e}",
+                path.display(),
+                mesh.display()
+            )
+        })?;
+    }
+    Ok(hash)
+}
+
+/// `hash` followed by the length of the file at `path` and its bytes, read a megabyte at a
+/// time: reading a mesh file whole for its hash held a second copy of it in memory.
+fn hash_file(mut hash: u64, path: &Path) -> std::io::Result<u64> {
+    let mut file = crate::util::input::open(path)?;
+    let metadata = file.metadata()?;
+    if !metadata.is_file() {
+        // A named pipe (the loader refuses them first): its bytes were the loader's.
+        return Err(std::io::Error::other("not a regular file"));
+    }
+    let len = metadata.len();
+    hash = fnv1a(hash, &len.to_le_bytes());
+    let mut buffer = vec![0u8; 1 << 20];
+    let mut read = 0u64;
+    loop {
+        let n = match file.read(&mut buffer) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        hash = fnv1a(hash, &buffer[..n]);
+        read += n as u64;
+    }
+    if read != len {
+        return Err(std::io::Error::other(format!(
+            "changed while it was read ({len} bytes, then {read})"
+        )));
     }
     Ok(hash)
 }

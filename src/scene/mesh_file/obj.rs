@@ -318,8 +318,10 @@ pub fn parse(mut reader: impl BufRead) -> Result<(TriangleMesh, MeshReport), Str
     loop {
         line.clear();
         let start = number + 1;
-        // A line ending in a backslash continues on the next one.
+        // A line ending in a backslash continues on the next one, unless the backslash is in
+        // a comment (`# exported from C:\models\` swallowed the vertex after it).
         loop {
+            let segment = line.len();
             let n =
                 read_line(&mut reader, &mut line).map_err(|e| format!("cannot read OBJ: {e}"))?;
             if n == 0 {
@@ -329,7 +331,8 @@ pub fn parse(mut reader: impl BufRead) -> Result<(TriangleMesh, MeshReport), Str
             while line.last().is_some_and(|b| b.is_ascii_whitespace()) {
                 line.pop();
             }
-            if line.last() != Some(&b'\\') {
+            if line.last() != Some(&b'\\') || line.get(segment..).is_some_and(|l| l.contains(&b'#'))
+            {
                 break;
             }
             line.pop();
