@@ -368,6 +368,8 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
     std::fs::write(&scene, &text).unwrap();
     let at = |name: &str| dir.path().join(name).display().to_string();
     let scene_path = scene.display().to_string();
+    // A link to an output not yet written: the PNG went through it onto the EXR.
+    std::os::unix::fs::symlink("out.exr", dir.path().join("p.png")).unwrap();
     let cases: Vec<(Vec<String>, String)> = vec![
         (
             vec![
@@ -377,6 +379,20 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
                 scene_path.clone(),
             ],
             format!("-o names the scene ({scene_path}): the run would overwrite it"),
+        ),
+        (
+            vec![
+                "render".into(),
+                scene_path.clone(),
+                "-o".into(),
+                at("out.exr"),
+                "--png".into(),
+                at("p.png"),
+            ],
+            format!(
+                "--png and -o name the same file ({}): each output needs its own",
+                at("p.png")
+            ),
         ),
         (
             vec![
@@ -482,7 +498,7 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
     }
     assert_eq!(std::fs::read_to_string(&scene).unwrap(), text);
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
-    assert_eq!(names.len(), 1, "only the scene: {names:?}");
+    assert_eq!(names.len(), 2, "only the scene and the link: {names:?}");
 }
 
 /// An image whose pixels cannot fit in the memory the process may use is refused before

@@ -333,6 +333,9 @@ fn resolved(path: &Path) -> PathBuf {
     if let Ok(p) = std::fs::canonicalize(path) {
         return p;
     }
+    // A link to a file not yet written is where the writer will go: `--png p.png`, a link to
+    // `out.exr`, wrote the preview over the image.
+    let path = &photondiff::util::atomic::follow_links(path).unwrap_or_else(|_| path.into());
     let absolute = std::path::absolute(path).unwrap_or_else(|_| path.to_path_buf());
     match (absolute.parent(), absolute.file_name()) {
         (Some(dir), Some(name)) => std::fs::canonicalize(dir)
