@@ -220,8 +220,10 @@ pub fn srgb_luminance(r: f64, g: f64, b: f64) -> f64 {
     0.2126 * linear_to_srgb(r) + 0.7152 * linear_to_srgb(g) + 0.0722 * linear_to_srgb(b)
 }
 
-/// Mean SSIM over the 8 x 8 windows (stride 4, from the top-left) of two `w` x `h` luminance
-/// planes whose top-left corner `(x0, y0)` passes `include`; `None` when no window does.
+/// Mean SSIM over the 8 x 8 windows (stride 4, from the top-left, and one more flush with the
+/// right and with the bottom edge where the stride does not end there) of two `w` x `h`
+/// luminance planes whose top-left corner `(x0, y0)` passes `include`; `None` when no window
+/// does.
 pub fn mean_ssim(
     a: &[f64],
     b: &[f64],
@@ -231,8 +233,8 @@ pub fn mean_ssim(
 ) -> Option<f64> {
     let (c1, c2) = ((0.01f64).powi(2), (0.03f64).powi(2));
     let (mut sum, mut count) = (0.0, 0.0);
-    for y0 in (0..h.saturating_sub(7)).step_by(4) {
-        for x0 in (0..w.saturating_sub(7)).step_by(4) {
+    for y0 in window_starts(h) {
+        for x0 in window_starts(w) {
             if !include(x0, y0) {
                 continue;
             }
@@ -262,9 +264,38 @@ pub fn mean_ssim(
     (count > 0.0).then(|| sum / count)
 }
 
+/// Where the 8-pixel windows along a side of `n` pixels start: every 4 pixels, and flush with
+/// the far edge where that stride stops short of it (a 41-pixel row's last column was in no
+/// window: two black rows at the bottom of a 41 x 30 image read SSIM 1).
+fn window_starts(n: usize) -> Vec<usize> {
+    let mut starts: Vec<usize> = (0..n.saturating_sub(7)).step_by(4).collect();
+    if let Some(&last) = starts.last() {
+        if last + 8 < n {
+            starts.push(n - 8);
+        }
+    }
+    starts
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Every pixel is in a window, however the size divides; sizes the stride ends on keep
+    /// their windows as they were.
+    #[test]
+    fn ssim_windows_reach_the_far_edges() {
+        assert_eq!(window_starts(16), vec![0, 4, 8]);
+        assert_eq!(window_starts(17), vec![0, 4, 8, 9]);
+        assert_eq!(window_starts(8), vec![0]);
+        assert_eq!(window_starts(7), Vec::<usize>::new());
+        // 12 x 10 planes, different only in their last two rows: not SSIM 1.
+        let a = vec![0.5; 120];
+        let mut b = a.clone();
+        b[100..].iter_mut().for_each(|v| *v = 0.0);
+        let s = mean_ssim(&a, &b, 12, 10, |_, _| true).unwrap();
+        assert!(s < 0.99, "{s}");
+    }
 
     #[test]
     fn errors_of_known_images() {
