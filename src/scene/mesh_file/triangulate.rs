@@ -112,9 +112,12 @@ pub struct Scratch {
 }
 
 /// Ear clipping over `scratch.points` (counter-clockwise): clips a convex corner whose
-/// triangle holds no other remaining corner, until three are left. Collinear corners are
-/// clipped without a triangle (it would have zero area). A polygon with no ear (it crosses
-/// itself) is fanned from what remains.
+/// triangle holds no other remaining reflex corner, until three are left (a convex corner
+/// inside the triangle cannot be there without a reflex one; and a corner on one of the
+/// triangle's own corners, as where a hole is joined to its outline by a slit, is that corner
+/// again: either blocked every ear of a keyhole, which was fanned over its hole). Collinear
+/// corners are clipped without a triangle (it would have zero area). A polygon with no ear (it
+/// crosses itself) is fanned from what remains.
 fn ear_clip(scratch: &mut Scratch, emit: &mut impl FnMut([usize; 3])) {
     let Scratch { points, ring } = scratch;
     ring.clear();
@@ -132,11 +135,14 @@ fn ear_clip(scratch: &mut Scratch, emit: &mut impl FnMut([usize; 3])) {
             true // collinear: removing it changes nothing
         } else {
             turn > 0.0
-                && !ring.iter().any(|&k| {
-                    let p = points[k];
-                    k != ring[ip]
-                        && k != ring[i]
-                        && k != ring[inext]
+                && !(0..m).any(|j| {
+                    let p = points[ring[j]];
+                    let (before, after) =
+                        (points[ring[(j + m - 1) % m]], points[ring[(j + 1) % m]]);
+                    p != a
+                        && p != b
+                        && p != c
+                        && cross(before, p, after) <= 0.0
                         && cross(a, b, p) >= 0.0
                         && cross(b, c, p) >= 0.0
                         && cross(c, a, p) >= 0.0
@@ -222,6 +228,44 @@ mod tests {
                 assert!(a * expected > 0.0, "{t:?} has the wrong winding");
             }
             assert!((area(&out, &p) - expected).abs() < 1e-12);
+        }
+    }
+
+    /// A 4 x 4 square with a 2 x 2 hole joined to its outline by a slit (area 12), its corners
+    /// at the slit's ends written twice or named twice: it was fanned over its hole (area 16).
+    #[test]
+    fn a_keyhole_is_clipped_around_its_hole() {
+        let p = [
+            [0.0, 0.0, 0.0],
+            [4.0, 0.0, 0.0],
+            [4.0, 4.0, 0.0],
+            [0.0, 4.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 3.0, 0.0],
+            [3.0, 3.0, 0.0],
+            [3.0, 1.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+        ];
+        for order in [
+            [0u32, 1, 2, 3, 8, 9, 5, 6, 7, 4],
+            [0, 1, 2, 3, 0, 4, 5, 6, 7, 4],
+        ] {
+            let (s, out) = run(&order, &p);
+            assert_eq!(s, Shape::Concave);
+            for t in &out {
+                assert!(area(&[*t], &p) > 0.0, "{t:?} has the wrong winding");
+            }
+            assert!((area(&out, &p) - 12.0).abs() < 1e-12, "{out:?}");
+            // No triangle covers the hole's centre.
+            let inside = |t: &[u32; 3]| {
+                let [a, b, c] =
+                    t.map(|k| DVec2::new(p[k as usize][0].into(), p[k as usize][1].into()));
+                let q = DVec2::new(2.0, 2.0);
+                let s = [(a, b), (b, c), (c, a)].map(|(u, v)| (v - u).perp_dot(q - u));
+                s.iter().all(|&x| x > 0.0)
+            };
+            assert!(!out.iter().any(inside), "{out:?}");
         }
     }
 
