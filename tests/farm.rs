@@ -709,3 +709,46 @@ fn pass_ranges_and_tiles_merge_into_the_single_process_image_bit_for_bit() {
         assert!(!bad.exists());
     }
 }
+
+/// `farm/slurm/submit.sh` refuses, before submitting anything, what would fail only once the
+/// cluster had run: an OUTDIR holding an earlier run's parts (the merge took them beside the
+/// new ones and failed after every task), an option without its value.
+#[test]
+fn submit_refuses_an_earlier_runs_parts_and_a_missing_value_before_any_job() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = scene(dir.path(), "s.toml", "");
+    let out = dir.path().join("run");
+    std::fs::create_dir_all(out.join("parts")).unwrap();
+    std::fs::write(out.join("parts/tile-0-of-4.passes-0-1.exr"), b"").unwrap();
+    let submit = concat!(env!("CARGO_MANIFEST_DIR"), "/farm/slurm/submit.sh");
+    let run = |args: &[&str]| {
+        // No sbatch on PATH: a job submitted would fail with "not found", not with the refusal.
+        let out = Command::new("sh")
+            .arg(submit)
+            .args(args)
+            .env("PHOTONDIFF", EXE)
+            .env("PATH", "/usr/bin:/bin")
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        (
+            out.status.code(),
+            stderr.lines().next().unwrap_or("").to_string(),
+        )
+    };
+    assert_eq!(
+        run(&[s(&scene), s(&out)]),
+        (
+            Some(1),
+            format!(
+                "submit.sh: {} holds parts of an earlier run (tile-0-of-4.passes-0-1.exr): give a \
+                 new OUTDIR, or remove them (--array re-runs tasks of that run)",
+                out.join("parts").display()
+            )
+        )
+    );
+    assert_eq!(
+        run(&["--tiles"]),
+        (Some(1), "submit.sh: --tiles needs a value".to_string())
+    );
+}

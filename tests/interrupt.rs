@@ -13,19 +13,17 @@ mod common;
 use common::SMALL_SCENE as SCENE;
 
 /// Starts a render of `scene` with `extra` options that would run for ten minutes (a time
-/// budget of 600 s).
+/// budget of 600 s, unless `extra` gives `--passes`: a tile takes no time budget).
 fn start(dir: &Path, scene: &str, extra: &[&str]) -> Child {
     let file = dir.join("scene.toml");
     std::fs::write(&file, scene).unwrap();
+    let long: &[&str] = match extra.contains(&"--passes") {
+        true => &[],
+        false => &["--time-budget", "600"],
+    };
     Command::new(env!("CARGO_BIN_EXE_photondiff"))
-        .args([
-            "render",
-            "--quiet",
-            "--threads",
-            "1",
-            "--time-budget",
-            "600",
-        ])
+        .args(["render", "--quiet", "--threads", "1"])
+        .args(long)
         .args(extra)
         .arg("-o")
         .arg(dir.join("img.exr"))
@@ -132,6 +130,35 @@ fn a_termination_signal_keeps_the_passes_done() {
     assert!(stderr.contains("the image is the mean of the"), "{stderr}");
     let film = Film::read_exr(&dir.path().join("img.exr")).unwrap();
     assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
+}
+
+/// A tile stopped by SIGTERM (a Slurm task at its time limit) keeps its passes done, and
+/// `merge` takes it, saying that the image holds fewer passes than were asked for.
+#[test]
+fn merging_an_interrupted_tile_warns_of_its_passes() {
+    let dir = tempfile::tempdir().unwrap();
+    let extra = ["--tile", "0/1", "--passes", "100000"];
+    let (status, stderr) = run_and_signal(dir.path(), SCENE, &extra, 1, "TERM");
+    assert_eq!(status.code(), Some(130), "{stderr}");
+    let img = dir.path().join("img.exr");
+    let part = photondiff::render::part::read_part(&img).unwrap();
+    let passes = part.metadata["photondiff/passes"].clone();
+    let out = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .arg("merge")
+        .arg(&img)
+        .arg("-o")
+        .arg(dir.path().join("whole.exr"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        format!(
+            "photondiff: warning: 1 of the 1 parts was interrupted ({}): the image holds the \
+             {passes} passes each finished, not the passes asked for\n",
+            img.display()
+        )
+    );
 }
 
 /// Passes of 20 million camera rays (seconds each, tens on a busy machine).

@@ -33,6 +33,10 @@ tiles=4 passes= ranges=1 cpus=2 array= partition= photon_options=
 usage() { sed -n '2,/^set -eu/p' "$0" | sed '$d; s/^# \{0,1\}//' >&2; exit 1; }
 while [ $# -gt 0 ]; do
     case $1 in
+        --tiles|--passes|--pass-ranges|--cpus-per-task|--array|--partition|--photons|--caustic-photons|--overlap|--seed|--global-aim|--probe-walls)
+            [ $# -ge 2 ] || { echo "submit.sh: $1 needs a value" >&2; usage; } ;;
+    esac
+    case $1 in
         --tiles) tiles=$2; shift 2 ;;
         --passes) passes=$2; shift 2 ;;
         --pass-ranges) ranges=$2; shift 2 ;;
@@ -82,7 +86,19 @@ fi
 [ -x "$photondiff" ] || { echo "submit.sh: no photondiff binary at $photondiff (cargo build --release, or set PHOTONDIFF)" >&2; exit 1; }
 stem=$(basename "$scene"); stem=${stem%.*}
 maps=$out/photons.pdm parts=$out/parts logs=$out/logs image=$out/$stem.exr
+# A new run into an OUTDIR that holds an earlier run's parts would merge them with its own:
+# with another pass layout the merge failed after every task had run.
+if [ -z "$array" ]; then
+    for part in "$parts"/tile-*.exr; do
+        if [ -f "$part" ]; then
+            echo "submit.sh: $parts holds parts of an earlier run ($(basename "$part")): give a new OUTDIR, or remove them (--array re-runs tasks of that run)" >&2
+            exit 1
+        fi
+    done
+fi
 mkdir -p "$parts" "$logs"
+# sbatch reads % in --output as a pattern (%x: the job's name): a literal one is %%.
+log_dir=$(printf '%s\n' "$logs" | sed 's/%/%%/g')
 common="--parsable"
 [ -n "$partition" ] && common="$common --partition=$partition"
 
@@ -90,20 +106,20 @@ common="--parsable"
 dependency=
 if [ -z "$array" ] || [ ! -e "$maps" ]; then
     # shellcheck disable=SC2086 # word splitting of the option lists is intended
-    photons_job=$(sbatch $common --cpus-per-task="$cpus" --output="$logs/photons-%j.out" \
+    photons_job=$(sbatch $common --cpus-per-task="$cpus" --output="$log_dir/photons-%j.out" \
         "$here/photons.sbatch" "$photondiff" "$scene" "$maps" $photon_options $map_options)
     echo "photons job: $photons_job"
     dependency="--dependency=afterok:$photons_job --kill-on-invalid-dep=yes"
 fi
 # shellcheck disable=SC2086
 tiles_job=$(sbatch $common --cpus-per-task="$cpus" $dependency --array="${array:-0-$((tasks - 1))}" \
-    --output="$logs/tile-%A_%a.out" \
+    --output="$log_dir/tile-%A_%a.out" \
     "$here/tile.sbatch" "$photondiff" "$scene" "$maps" "$parts" "$tiles" "$ranges" "${passes:-0}" \
     $photon_options "$@")
 echo "tile jobs: $tiles_job (array ${array:-0-$((tasks - 1))})"
 # shellcheck disable=SC2086
 merge_job=$(sbatch $common --cpus-per-task=1 --dependency="afterok:$tiles_job" --kill-on-invalid-dep=yes \
-    --output="$logs/merge-%j.out" \
+    --output="$log_dir/merge-%j.out" \
     "$here/merge.sbatch" "$photondiff" "$parts" "$tiles" "$image")
 echo "merge job: $merge_job"
 echo "image: $image"

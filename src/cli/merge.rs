@@ -50,6 +50,32 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
         .map(|p| read_part(p))
         .collect::<Result<Vec<_>, _>>()?;
     let merged = merge(&parts)?;
+    // Parts stopped by a signal (Ctrl-C, a batch system's time limit) hold the passes they
+    // finished: parts of other pass counts are refused, but parts all stopped alike merge.
+    let stopped: Vec<String> = parts
+        .iter()
+        .filter(|p| {
+            p.metadata
+                .get("photondiff/passes_stopped_by")
+                .map(String::as_str)
+                == Some("interrupted")
+        })
+        .map(|p| p.path.display().to_string())
+        .collect();
+    if let Some(first) = stopped.first() {
+        let passes = parts[0]
+            .metadata
+            .get("photondiff/passes")
+            .map_or("?", |p| p.as_str());
+        eprintln!(
+            "photondiff: warning: {} of the {} parts {} interrupted ({first}{}): the image holds \
+             the {passes} passes each finished, not the passes asked for",
+            stopped.len(),
+            parts.len(),
+            if stopped.len() == 1 { "was" } else { "were" },
+            if stopped.len() > 1 { ", ..." } else { "" },
+        );
+    }
     create_parent(&args.output)?;
     create_parent(&png)?;
     merged.film.write_exr(&args.output, &merged.metadata)?;
