@@ -323,7 +323,8 @@ fn a_slurm_job_array_renders_the_single_process_image_and_recovers_from_a_failed
     );
 
     // All tiles succeed.
-    let (merge, image) = cluster.submit(&scene, &d.join("run"), &[], &[]);
+    // A % in OUTDIR is no pattern of sbatch's --output: the logs land where they should.
+    let (merge, image) = cluster.submit(&scene, &d.join("run 100%x"), &[], &[]);
     assert_eq!(cluster.wait(&merge), "COMPLETED");
     assert!(
         bits(&image) == reference,
