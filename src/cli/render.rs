@@ -75,8 +75,9 @@ pub struct RenderArgs {
     /// Shadow rays to each point and spot light at a camera ray's first diffuse hit seen
     /// directly, along each axis: N x N rays from points spread over the pixel's footprint on
     /// the surface (anti-aliasing shadow edges and steep falloff within a pixel); hits seen
-    /// through mirrors and glass keep one. Default 2 for `integrated` (the default estimator),
-    /// 1 (the hit alone) for the others.
+    /// through mirrors and glass keep one. Quad lights' --area-samples strata are spread over
+    /// the same points, at least N x N of them. Default 2 for `integrated` (the default
+    /// estimator), 1 (the hit alone) for the others.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=16))]
     footprint_shadow_rays: Option<u32>,
     /// Radiance estimate of the photon maps: `direct` (no photon maps, direct light only),
