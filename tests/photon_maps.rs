@@ -642,3 +642,50 @@ fn a_dim_light_renders_as_a_bright_one_scaled() {
         }
     }
 }
+
+/// A light split into two alike at one place (30 + 30 W/sr for 60) emits what the one light
+/// does: each emission carries the same power, caustic and aimed global. The emitter's density
+/// matched a light's sources by value, so each of the two counted the other's cones too, and
+/// caustics and aimed photons carried half their light (the caustic's mean ratio to the
+/// reference 0.50).
+#[test]
+fn two_lights_alike_at_one_place_emit_what_one_of_twice_the_intensity_does() {
+    let one = canonical();
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ))
+    .unwrap()
+    .replace(
+        "intensity = [60.0, 60.0, 60.0]",
+        "intensity = [30.0, 30.0, 30.0]\n[[lights]]\ntype = \"point\"\n\
+         position = [-4.0, 4.0, -1.0]\nintensity = [30.0, 30.0, 30.0]",
+    );
+    let two = parse_scene(&text, Path::new(".")).unwrap();
+    assert_eq!((one.lights.len(), two.lights.len()), (1, 2));
+    // The least and the most power an emission carries (a caustic emission's is one value;
+    // an aimed global one's two: inside and outside the sphere's cone).
+    let range = |e: &Emitter| {
+        let mut rng = Rng::new(7, 0);
+        (0..4000u64)
+            .filter_map(|i| e.emit_from_light(i, &mut rng))
+            .map(|(emission, _)| emission.power.x)
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), p| {
+                (lo.min(p), hi.max(p))
+            })
+    };
+    let close = |a: (f64, f64), b: (f64, f64)| {
+        (a.0 / b.0 - 1.0).abs() < 1e-9 && (a.1 / b.1 - 1.0).abs() < 1e-9
+    };
+    let (c1, c2) = (
+        range(&Emitter::caustic(&one, 20_000, 32.0, 0)),
+        range(&Emitter::caustic(&two, 20_000, 32.0, 0)),
+    );
+    assert!(close(c1, c2), "caustic: one light {c1:?}, two {c2:?}");
+    let (g1, g2) = (
+        range(&Emitter::global_aimed(&one, 20_000, 32.0, 0, 0.15)),
+        range(&Emitter::global_aimed(&two, 20_000, 32.0, 0, 0.15)),
+    );
+    assert!(g1.0 < g1.1, "two values: {g1:?}");
+    assert!(close(g1, g2), "aimed global: one light {g1:?}, two {g2:?}");
+}

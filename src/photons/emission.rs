@@ -81,6 +81,10 @@ fn mean(c: DVec3) -> f64 {
 #[derive(Debug, Clone, Copy)]
 struct Source {
     light: Light,
+    /// The light's index in the scene's lights: two lights alike (one light split in two, at
+    /// one place) are two lights, and each one's density counts its own cones alone (compared
+    /// by value, each counted the other's too, and both carried half their light).
+    light_index: usize,
     /// For caustic photons, the target; `None` for global photons.
     target: Option<Target>,
     /// Probability of choosing this source.
@@ -115,8 +119,9 @@ impl Emitter {
             .lights
             .iter()
             .zip(&weights)
-            .filter(|(_, &w)| w > 0.0)
-            .map(|(light, &w)| {
+            .enumerate()
+            .filter(|(_, (_, &w))| w > 0.0)
+            .map(|(light_index, (light, &w))| {
                 let p = w / total;
                 let n = (photons as f64 * p).max(1.0);
                 let spread = match *light {
@@ -130,6 +135,7 @@ impl Emitter {
                 };
                 Source {
                     light: *light,
+                    light_index,
                     target: None,
                     probability: p,
                     spread,
@@ -188,6 +194,7 @@ impl Emitter {
             for (t, w) in shares {
                 sources.push(Source {
                     light: s.light,
+                    light_index: s.light_index,
                     target: Some(t),
                     probability: s.probability * aim * w / total,
                     spread: 0.0,
@@ -205,7 +212,7 @@ impl Emitter {
     pub fn caustic(scene: &Scene, photons: usize, overlap: f64, seed: u64) -> Self {
         let targets = specular_targets(scene);
         let mut pairs = Vec::new();
-        for light in &scene.lights {
+        for (light_index, light) in scene.lights.iter().enumerate() {
             for t in &targets {
                 let (w, weight) = match *light {
                     Light::Point { position, .. } | Light::Spot { position, .. } => {
@@ -233,14 +240,14 @@ impl Emitter {
                         )
                     }
                 };
-                pairs.push((*light, *t, w, w * weight));
+                pairs.push((*light, light_index, *t, w, w * weight));
             }
         }
-        let total: f64 = pairs.iter().map(|p| p.3).sum();
+        let total: f64 = pairs.iter().map(|p| p.4).sum();
         let sources = pairs
             .into_iter()
-            .filter(|p| p.3 > 0.0)
-            .map(|(light, target, omega, weight)| {
+            .filter(|p| p.4 > 0.0)
+            .map(|(light, light_index, target, omega, weight)| {
                 let p = weight / total;
                 let n = (photons as f64 * p).max(1.0);
                 let spread = match light {
@@ -251,6 +258,7 @@ impl Emitter {
                 };
                 Source {
                     light,
+                    light_index,
                     target: Some(target),
                     probability: p,
                     spread,
@@ -318,23 +326,22 @@ impl Emitter {
     /// Whether this (caustic) emitter can draw direction `d` leaving `from` on `light`: `d` lies
     /// in one of the light's target cones. A light tracer that traces caustic paths with this
     /// emitter skips such directions of its global paths, so that no direction is counted twice.
-    pub fn covers(&self, light: &Light, from: DVec3, d: DVec3) -> bool {
+    pub fn covers(&self, light: usize, from: DVec3, d: DVec3) -> bool {
         self.density(from, light, d) > 0.0
     }
 
-    /// [`Emitter::emit`], with the light the emission left.
+    /// [`Emitter::emit`], with the index of the light the emission left (in the scene's
+    /// lights).
     #[inline]
-    pub fn emit_from_light(&self, index: u64, rng: &mut Rng) -> Option<(Emission, &Light)> {
-        let light = self.pick_light(rng);
-        Some((
-            self.emit_picked(light.0, index, rng, |l| l.complete())?,
-            light.1,
-        ))
+    pub fn emit_from_light(&self, index: u64, rng: &mut Rng) -> Option<(Emission, usize)> {
+        let (k, light) = self.pick_light(rng);
+        Some((self.emit_picked(k, index, rng, |l| l.complete())?, light))
     }
 
-    fn pick_light(&self, rng: &mut Rng) -> (usize, &Light) {
+    /// A source, and its light's index in the scene's lights.
+    fn pick_light(&self, rng: &mut Rng) -> (usize, usize) {
         let k = self.pick_from(rng.uniform());
-        (k, &self.sources[k].light)
+        (k, self.sources[k].light_index)
     }
 
     /// The source the uniform `pick` picks.
@@ -388,7 +395,7 @@ impl Emitter {
                 let d = direction(&cone);
                 if let Some(unit) = self.mixture_spread {
                     return self
-                        .emit_mixture(&source.light, position, d, unit)
+                        .emit_mixture(source, position, d, unit)
                         .map(|l| start(&l));
                 }
                 let power = match source.target {
@@ -404,7 +411,7 @@ impl Emitter {
                         if intensity == DVec3::ZERO {
                             return None;
                         }
-                        intensity / self.density(position, &source.light, d)
+                        intensity / self.density(position, source.light_index, d)
                     }
                 };
                 Some(start(&Launch {
@@ -428,9 +435,15 @@ impl Emitter {
 
     /// An aimed global emitter's emission in direction `d` from the point or spot light
     /// `light` at `position`: power and spread from the mixture's density in `d`.
-    fn emit_mixture(&self, light: &Light, position: DVec3, d: DVec3, unit: f64) -> Option<Launch> {
-        let pdf = self.density(position, light, d);
-        let intensity = light.intensity_towards(d);
+    fn emit_mixture(
+        &self,
+        source: &Source,
+        position: DVec3,
+        d: DVec3,
+        unit: f64,
+    ) -> Option<Launch> {
+        let pdf = self.density(position, source.light_index, d);
+        let intensity = source.light.intensity_towards(d);
         // (A spot's aimed share may reach beyond its cone: nothing to trace there.)
         if pdf <= 0.0 || intensity == DVec3::ZERO {
             return None;
@@ -473,7 +486,7 @@ impl Emitter {
                 if cos_light <= 0.0 {
                     return None;
                 }
-                let pdf = self.density(y, &source.light, d) / area;
+                let pdf = self.density(y, source.light_index, d) / area;
                 (d, radiance * (cos_light / pdf))
             }
         };
@@ -491,10 +504,10 @@ impl Emitter {
     /// contributes (a caustic emitter's target cones; an aimed global emitter's also the
     /// light's own cone). A quad light's own emission, from the cosine lobe, has no cone and
     /// is not counted.
-    fn density(&self, from: DVec3, light: &Light, d: DVec3) -> f64 {
+    fn density(&self, from: DVec3, light: usize, d: DVec3) -> f64 {
         self.sources
             .iter()
-            .filter(|s| s.light == *light)
+            .filter(|s| s.light_index == light)
             .filter_map(|s| {
                 // A point or spot light's cones are fixed (`from` is the light's position); a
                 // quad light's target cones start at each emission's point.
