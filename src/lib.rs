@@ -13,6 +13,9 @@
 //! `estimate` -> `photons` -> `scene` -> `geometry` -> `embree`, with `util` below all; no module
 //! imports one above it. `unsafe` lives in [`embree`] alone.
 
+// Standard error through `stderr_line!` (`util::stderr`), which cannot panic.
+#![deny(clippy::print_stderr)]
+
 pub mod embree;
 pub mod estimate;
 pub mod geometry;

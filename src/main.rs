@@ -1,5 +1,9 @@
 //! The `photondiff` command line.
 
+// Standard error through `photondiff::stderr_line!` (`util::stderr`): `eprintln!` panics when
+// it cannot write, and a closed log pipe ended renders with status 101 and no image.
+#![deny(clippy::print_stderr)]
+
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
 use std::process::ExitCode;
 
@@ -103,9 +107,9 @@ fn main() -> ExitCode {
         Ok(()) if photondiff::util::interrupt::honoured() => ExitCode::from(130),
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
-            eprintln!("photondiff: error: {message}");
+            photondiff::stderr_line!("photondiff: error: {message}");
             if let Some(trace) = cli::write_trace_of_failure(&message) {
-                eprintln!(
+                photondiff::stderr_line!(
                     "photondiff: the trace of the failed run is in {}",
                     trace.display()
                 );

@@ -1,6 +1,8 @@
 //! `photondiff compare` on tiny EXRs written here: figures against values computed by hand,
 //! masks, the error map's colours, every mismatch's exact message, `--max-relrmse`'s status.
 
+mod common;
+
 use photondiff::reference::channels::ChannelImage;
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -722,4 +724,36 @@ fn a_closed_pipe_is_no_panic_and_a_full_disk_is_an_error() {
         stderr(&out),
         "photondiff: error: standard output: cannot write: No space left on device (os error 28)\n"
     );
+}
+
+/// Standard error that cannot be written (its reader gone, `2>/dev/full`) drops the messages,
+/// not the run: a render's stage messages and statistics panicked there (status 101), and
+/// the image was never written.
+#[test]
+fn a_render_whose_standard_error_fails_still_writes_its_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, common::SMALL_SCENE).unwrap();
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap();
+    let sinks: [std::process::Stdio; 2] = [writer.into(), full.into()];
+    for (k, sink) in sinks.into_iter().enumerate() {
+        let exr = dir.path().join(format!("img{k}.exr"));
+        let out = std::process::Command::new(bin())
+            .args(["render", "--threads", "1", "--passes", "2", "-o"])
+            .arg(&exr)
+            .arg(&scene)
+            .stderr(sink)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(0), "sink {k}");
+        assert!(
+            exr.exists() && exr.with_extension("png").exists(),
+            "sink {k}"
+        );
+    }
 }

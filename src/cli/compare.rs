@@ -155,7 +155,7 @@ pub fn run(args: &CompareArgs) -> Result<(), String> {
     if let Some(path) = &args.error_map {
         let (errors, scale) = relative_error_per_pixel(&image, &reference);
         if scale == ErrorScale::Absolute {
-            eprintln!(
+            photondiff::stderr_line!(
                 "photondiff: note: the reference is zero everywhere: the error map shows \
                  absolute errors (RMS over channels of I - R)"
             );

@@ -67,7 +67,7 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
             .metadata
             .get("photondiff/passes")
             .map_or("?", |p| p.as_str());
-        eprintln!(
+        photondiff::stderr_line!(
             "photondiff: warning: {} of the {} parts {} interrupted ({first}{}): the image holds \
              the {passes} passes each finished, not the passes asked for",
             stopped.len(),

@@ -92,7 +92,7 @@ pub fn check_threads(threads: usize) -> Result<usize, String> {
     }
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     if threads > 4 * cores {
-        eprintln!(
+        photondiff::stderr_line!(
             "photondiff: warning: --threads {threads}: this machine has {cores} cores; more \
              threads than cores take turns and run slower, not faster (0 = one per core)"
         );
@@ -196,7 +196,7 @@ pub fn write_trace_and_stats(
 pub fn print_memory(memory: &mut photondiff::render::stats::MemoryStats, quiet: bool) {
     if !quiet {
         memory.record_peak();
-        eprintln!("{}", memory.summary());
+        photondiff::stderr_line!("{}", memory.summary());
     }
 }
 
@@ -208,7 +208,7 @@ pub fn warn_photon_memory(scene: &Path, photons: usize) {
     if let Some(total) = photondiff::util::memory::total_bytes() {
         if need > total / 2 {
             let gb = |b: u64| b as f64 / 1e9;
-            eprintln!(
+            photondiff::stderr_line!(
                 "photondiff: warning: {}: {photons} photons may need up to {:.1} GB while their \
                  maps are built (about {PEAK_BYTES_PER_PHOTON} bytes a photon); this process may \
                  use {:.1} GB",
@@ -229,7 +229,7 @@ pub fn warn_camera_in_glass(
     embree: &photondiff::embree::Scene,
 ) {
     if let Some(glass) = photondiff::reference::light_tracer::camera_in_glass(scene, embree) {
-        eprintln!(
+        photondiff::stderr_line!(
             "photondiff: warning: {}: the camera is inside {glass}, which is glass: light \
              tracing reaches the camera through open space only, so what it traces will be \
              black",
@@ -249,7 +249,7 @@ pub fn warn_specular_pixels(
     let seen = photondiff::reference::light_tracer::pixels_seeing_specular(scene, embree);
     if seen > 0 {
         let all = u64::from(scene.camera.width) * u64::from(scene.camera.height);
-        eprintln!(
+        photondiff::stderr_line!(
             "photondiff: warning: {}: {seen} of {all} pixels show a mirror or glass surface, \
              which light tracing cannot see through: they stay dark or partial however many \
              paths are traced; judge renders against it over the diffuse pixels only \
@@ -263,7 +263,7 @@ pub fn warn_specular_pixels(
 /// (`photondiff::scene::warnings`), one warning a line.
 pub fn warn_about_scene(path: &Path, scene: &photondiff::scene::Scene) {
     for w in photondiff::scene::warnings::warnings(scene) {
-        eprintln!("photondiff: warning: {}: {w}", path.display());
+        photondiff::stderr_line!("photondiff: warning: {}: {w}", path.display());
     }
 }
 

@@ -402,7 +402,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     let reference = pool.install(|| {
         let mut log = |m: &str| {
             if !args.quiet {
-                eprintln!("{m}")
+                photondiff::stderr_line!("{m}")
             }
         };
         make(

@@ -221,7 +221,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     {
         // Measured: multisampled 8x8 stayed 0.29 from the reference from 1 to 64 passes (two
         // seeds alike) while its noise fell to 1.6%, and coplanar stopped "at 2%" 255% off.
-        eprintln!(
+        photondiff::stderr_line!(
             "photondiff: warning: --target-noise measures the noise between passes, not the \
              bias: --estimator {} does not converge to the reference with passes (README, \
              \"What passes do not mend\"); --estimator integrated does",
@@ -272,7 +272,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     };
     // Once per mesh, whatever --quiet says: the scene is not quite what its files say.
     for warning in scene.warnings() {
-        eprintln!("photondiff: warning: {}: {warning}", args.scene.display());
+        photondiff::stderr_line!("photondiff: warning: {}: {warning}", args.scene.display());
     }
     stats.mesh_repairs = scene.mesh_report();
     let (device, embree, bvh) = stats.time("build BVH", || {
@@ -401,20 +401,20 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         &[&exr, &png],
     )?;
     if !args.quiet {
-        eprint!("{}", stats.summary());
+        photondiff::stderr_text!("{}", stats.summary());
     }
     out!("wrote {} and {}", exr.display(), png.display());
     // Whatever --quiet says: the image is not what the options asked for.
     if let Some(p) = stats.progressive.as_ref() {
         if p.stop == StopReason::Interrupted {
-            eprintln!(
+            photondiff::stderr_line!(
                 "photondiff: interrupted: the image is the mean of the {} passes done",
                 p.passes
             );
         }
     }
     if kind == EstimatorKind::Lighttrace && photondiff::util::interrupt::honoured() {
-        eprintln!(
+        photondiff::stderr_line!(
             "photondiff: interrupted: the image is of the {} light paths traced",
             stats.light_paths
         );
@@ -465,10 +465,14 @@ fn stop_on_ctrl_c(first: &'static str) {
     // A handler already set (by an embedding program) is left alone.
     let _ = ctrlc::set_handler(move || {
         if photondiff::util::interrupt::request() {
-            eprintln!("\nphotondiff: interrupted again: exiting without writing the image");
+            photondiff::stderr_line!(
+                "\nphotondiff: interrupted again: exiting without writing the image"
+            );
             std::process::exit(130);
         }
-        eprintln!("\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)");
+        photondiff::stderr_line!(
+            "\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)"
+        );
     });
 }
 
@@ -509,7 +513,10 @@ pub(crate) fn warn_shortfalls(
         if let Some(message) = m.shortfall().filter(|_| given(m.class)) {
             if !told.contains(&m.class) {
                 told.push(m.class);
-                eprintln!("photondiff: warning: {}: {message}{over}", scene.display());
+                photondiff::stderr_line!(
+                    "photondiff: warning: {}: {message}{over}",
+                    scene.display()
+                );
             }
         }
     }

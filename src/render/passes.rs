@@ -463,7 +463,7 @@ impl Progressive<'_> {
             let slower = self.alpha.min(self.global_alpha);
             let message = status(stop, sum.passes, elapsed, &noise, slower);
             if progress && !single && !crate::util::progress::draws_bars() {
-                eprintln!("{}", pass_line(stop, sum.passes, elapsed, &message));
+                crate::stderr_line!("{}", pass_line(stop, sum.passes, elapsed, &message));
             }
             bar.set_message(message);
         };

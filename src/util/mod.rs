@@ -1,6 +1,7 @@
 //! Small utilities every stage shares: random number streams, progress bars, atomic file
 //! output, input files that are files, EXR inputs of a plausible size, the process's memory, a
-//! trace for profiling and the request to stop a run early.
+//! trace for profiling, the request to stop a run early and messages on standard error that
+//! cannot fail.
 
 pub mod atomic;
 pub mod blocks;
@@ -10,6 +11,7 @@ pub mod interrupt;
 pub mod memory;
 pub mod progress;
 pub mod rng;
+pub mod stderr;
 #[cfg(test)]
 pub(crate) mod strategies;
 pub mod trace;
