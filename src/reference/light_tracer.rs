@@ -60,7 +60,11 @@ pub struct LightTraceOptions {
     pub paths: u64,
     /// Stop early after this much time, if set.
     pub time_budget: Option<Duration>,
-    /// Maximum number of bounces of a path. Default 32.
+    /// Maximum number of bounces of a path. Default 1024: paths end by Russian roulette on
+    /// the albedo, and the cap is only there so that a scene that loses no light (albedo 1,
+    /// light trapped in glass) ends. It was 32, which cut a closed diffuse sphere of albedo
+    /// 0.95 to 1 - 0.95^32 = 0.81 of its light (0.97 at 0.9): the reference was dark where
+    /// light bounces long.
     pub max_bounces: u32,
     /// Seed. Default 0.
     pub seed: u64,
@@ -80,7 +84,7 @@ impl Default for LightTraceOptions {
         LightTraceOptions {
             paths: 20_000_000,
             time_budget: None,
-            max_bounces: 32,
+            max_bounces: 1024,
             seed: 0,
             caustic_paths: 0,
             direct: true,
