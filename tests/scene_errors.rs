@@ -1033,6 +1033,16 @@ fn an_option_of_another_estimator_is_refused() {
             "--global-alpha does not apply to --estimator lighttrace (it uses no photon maps)",
         ),
         (
+            &["--estimator", "jensen", "--overlap", "8"][..],
+            "--overlap does not apply to --estimator jensen without --gather-rays (its k \
+             nearest photons have no footprints)",
+        ),
+        (
+            &["--estimator", "jensen", "--global-alpha", "0.9"][..],
+            "--global-alpha does not apply to --estimator jensen without --gather-rays (its k \
+             nearest photons have no footprints)",
+        ),
+        (
             &["--estimator", "lighttrace", "--view-grid", "2"][..],
             "--view-grid does not apply to --estimator lighttrace (its paths reach the camera \
              from the lights: it traces no camera rays)",

@@ -178,6 +178,19 @@ pub(super) fn options(
             ));
         }
     }
+    // Jensen's k nearest photons have no footprints: without final gathering (whose radiance
+    // map sizes its points by them) the footprints' overlap and the global map's shrinking
+    // are read by nothing (the same image to the bit with and without them).
+    if kind == EstimatorKind::Jensen && args.gather_rays == 0 {
+        for (id, option) in [("overlap", "--overlap"), ("global_alpha", "--global-alpha")] {
+            if given(id) {
+                return Err(format!(
+                    "{option} does not apply to --estimator jensen without --gather-rays (its k \
+                     nearest photons have no footprints)"
+                ));
+            }
+        }
+    }
     if kind == EstimatorKind::Lighttrace {
         for (id, option) in [
             ("view_grid", "--view-grid"),
