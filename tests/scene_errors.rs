@@ -238,6 +238,14 @@ fn invalid_values_are_explained() {
         error_of(&up, &[]),
         "camera.up: must not be zero or parallel to the view direction (look_at - eye)"
     );
+    // A look_at so far that the view direction's length overflows was blamed on `up`.
+    let far = format!("{CAMERA}{REST}")
+        .replace("look_at = [0.0, 0.0, 0.0]", "look_at = [1e200, 0.0, 1e200]");
+    assert_eq!(
+        error_of(&far, &[]),
+        "camera.look_at: too far from the eye: the view direction's length overflows (got \
+         [1e200, 0.0, 1e200]; only the direction matters, so a nearer point on it will do)"
+    );
     let e = error_of(&with_shape("type = \"quad\"\ncorner = [0.0, 0.0, 0.0]\nedge_u = [1.0, 0.0, 0.0]\nedge_v = [2.0, 0.0, 0.0]\nmaterial = \"white\""), &[]);
     assert_eq!(
         e,

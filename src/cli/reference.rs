@@ -34,7 +34,9 @@ pub struct ReferenceArgs {
           value_parser = clap::value_parser!(u64).range(..=MAX_PATHS))]
     caustic_paths: u64,
     /// Camera rays per pixel along each axis for the direct light of half A and half B.
-    #[arg(long, value_name = "A,B", value_delimiter = ',', default_values_t = [16, 17],
+    // `default_value` as typed: `default_values_t` showed "[default: 16 17]", which the
+    // parser refuses.
+    #[arg(long, value_name = "A,B", value_delimiter = ',', default_value = "16,17",
           conflicts_with = "merge", action = clap::ArgAction::Set,
           value_parser = clap::value_parser!(u32).range(1..=64))]
     direct_grids: Vec<u32>,

@@ -382,6 +382,15 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
     if eye == look_at {
         return Err("camera: eye and look_at are the same point".into());
     }
+    // Only the direction matters, but it must be a number: `look_at = [1e200, 0, 1e200]`
+    // overflowed the view direction's length, and the error blamed `up`.
+    if !(look_at - eye).length().is_finite() {
+        return Err(format!(
+            "camera.look_at: too far from the eye: the view direction's length overflows \
+             (got {:?}; only the direction matters, so a nearer point on it will do)",
+            c.look_at
+        ));
+    }
     let camera = Camera::look_at(eye, look_at, up, fov, c.width, c.height)
         .ok_or("camera.up: must not be zero or parallel to the view direction (look_at - eye)")?;
 
