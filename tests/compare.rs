@@ -757,3 +757,30 @@ fn a_render_whose_standard_error_fails_still_writes_its_image() {
         );
     }
 }
+
+/// An output written to standard output is all standard output carries: `--stats-json
+/// /dev/stdout` was followed by the `wrote ...` line, and no longer read as JSON.
+#[test]
+fn an_output_on_standard_output_is_not_followed_by_messages() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.toml");
+    std::fs::write(&scene, common::SMALL_SCENE).unwrap();
+    let out = std::process::Command::new(bin())
+        .args([
+            "render",
+            "--quiet",
+            "--threads",
+            "1",
+            "--stats-json",
+            "/dev/stdout",
+            "-o",
+        ])
+        .arg(dir.path().join("img.exr"))
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0));
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(json["threads"], 1);
+    assert!(String::from_utf8_lossy(&out.stderr).starts_with("wrote "));
+}

@@ -28,6 +28,12 @@ use std::path::{Path, PathBuf};
 /// run ends with it as its error.
 pub fn print_out(line: std::fmt::Arguments) {
     use std::io::Write;
+    // An output written to standard output (`--stats-json /dev/stdout`) is all it carries:
+    // the line after it made the JSON unreadable.
+    if OUTPUT_ON_STDOUT.load(std::sync::atomic::Ordering::Relaxed) {
+        photondiff::stderr_line!("{line}");
+        return;
+    }
     if let Err(e) = writeln!(std::io::stdout().lock(), "{line}") {
         if e.kind() != std::io::ErrorKind::BrokenPipe {
             let _ = STDOUT_FAILURE.set(format!("standard output: cannot write: {e}"));
@@ -36,6 +42,23 @@ pub fn print_out(line: std::fmt::Arguments) {
 }
 
 static STDOUT_FAILURE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+
+/// Whether an output file is standard output itself ([`check_outputs`]): the lines
+/// [`print_out`] writes go to standard error then.
+static OUTPUT_ON_STDOUT: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Whether `path` is the file standard output writes to (`/dev/stdout`, or the file a shell
+/// redirected it to).
+fn is_stdout(path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    let (Ok(a), Ok(b)) = (
+        std::fs::metadata(path),
+        std::fs::metadata("/proc/self/fd/1"),
+    ) else {
+        return false;
+    };
+    (a.dev(), a.ino()) == (b.dev(), b.ino())
+}
 
 /// The first failure to write standard output other than a closed pipe, if any.
 pub fn stdout_failure() -> Option<&'static String> {
@@ -374,6 +397,9 @@ pub fn check_image_names(exr: &Path, png: &Path) -> Result<(), String> {
 /// one of `inputs` (the scene, parts being merged), which the run would otherwise overwrite
 /// with its result.
 pub fn check_outputs(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), String> {
+    if outputs.iter().any(|(_, path)| is_stdout(path)) {
+        OUTPUT_ON_STDOUT.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
     for (k, (flag, path)) in outputs.iter().enumerate() {
         let here = resolved(path);
         for (other, other_path) in &outputs[..k] {
