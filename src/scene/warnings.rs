@@ -59,6 +59,7 @@ pub fn warnings(scene: &Scene) -> Vec<String> {
              lengths in a larger unit"
         ));
     }
+    out.extend(far_camera_warning(scene));
     let epsilon = scene.ray_epsilon();
     for (mesh, [lo, hi]) in scene.meshes.iter().zip(scene.mesh_bounds()) {
         let size = (hi - lo).length();
@@ -73,6 +74,34 @@ pub fn warnings(scene: &Scene) -> Vec<String> {
         }
     }
     out
+}
+
+/// A warning when the camera stands so far off (or so far from the origin) that single
+/// precision cannot place its rays' hits on an object to within [`MAX_OFFSET_OVER_OBJECT`]
+/// of its size: Embree tests a camera ray in single precision from the eye, one step of which
+/// is `2^-23` of the eye's largest coordinate plus the distance travelled. A glass sphere seen
+/// from 1.4e7 away (with a fov to frame it) came out as stripes without a word; from 1.4e4 it
+/// was right. The object of the worst ratio is named.
+fn far_camera_warning(scene: &Scene) -> Option<String> {
+    let eye = scene.camera.eye;
+    let step = |[lo, hi]: [DVec3; 2]| {
+        let distance = (eye - (lo + hi) * 0.5).length();
+        f64::from(f32::EPSILON) * (eye.abs().max_element() + distance)
+    };
+    let (mesh, size, step) = scene
+        .meshes
+        .iter()
+        .zip(scene.mesh_bounds())
+        .filter(|(m, _)| !matches!(m.material, Material::Emitter { .. }))
+        .map(|(m, b)| (m, (b[1] - b[0]).length(), step(b)))
+        .filter(|&(_, size, step)| size > 0.0 && step > MAX_OFFSET_OVER_OBJECT * size)
+        .max_by(|a, b| (a.2 / a.1).total_cmp(&(b.2 / b.1)))?;
+    Some(format!(
+        "the camera is so far off that single precision places its rays' hits only to about \
+         {step:.3e}, and {} is {size:.3e} across: it may come out in stripes; bring the camera \
+         nearer (a wider fov_y keeps the framing) or the scene's coordinates nearer the origin",
+        mesh.name
+    ))
 }
 
 /// The least share of the image the scene's box may cover, seen whole in front of the camera,
@@ -252,6 +281,37 @@ mod tests {
         assert!(
             w[0].starts_with(
                 "shapes[1] (sphere) is 3.464e0 across, and rays leave surfaces 2.500e0 off them"
+            ),
+            "{w:?}"
+        );
+    }
+
+    #[test]
+    fn a_camera_too_far_off_for_single_precision_is_named() {
+        // Framed as near: the sphere 2 across fills the view at every distance.
+        let far = |d: f64| {
+            let fov = 2.0 * (1.5f64 / (d * 2f64.sqrt())).atan().to_degrees();
+            CAMERA
+                .replace(
+                    "eye = [0.0, 2.0, 5.0]",
+                    &format!("eye = [0.0, {d:e}, {d:e}]"),
+                )
+                .replace("fov_y = 40.0", &format!("fov_y = {fov:e}"))
+                + "[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n\
+                 material = \"white\"\nsegments = 16\n"
+                + LIGHT
+        };
+        assert!(
+            warnings_of(&far(1e4)).is_empty(),
+            "{:?}",
+            warnings_of(&far(1e4))
+        );
+        let w = warnings_of(&far(1e7));
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(
+            w[0].starts_with(
+                "the camera is so far off that single precision places its rays' hits only to \
+                 about 2.878e0, and shapes[0] (sphere) is 3.464e0 across"
             ),
             "{w:?}"
         );
