@@ -376,6 +376,15 @@ fn header(bytes: &[u8], len: u64) -> Result<(Header, usize), String> {
 fn check_settings(header: &Header, options: &PhotonOptions) -> Result<(), String> {
     for (key, value) in &settings(options) {
         let theirs = header.settings.get(key).map_or("(none)", |v| v.as_str());
+        if theirs != value && ["max_bounces", "max_anisotropy"].contains(&key.as_str()) {
+            // Not options, nor set by the passes (as the radius limits and the global area
+            // scale are): settings of photondiff itself, changed since the file was traced.
+            return Err(format!(
+                "photon maps traced with other settings: {key} is {theirs} in the file, {value} in \
+                 this photondiff (not an option: the file is from another version; trace the maps \
+                 again with `photondiff photons`)"
+            ));
+        }
         if theirs != value {
             return Err(format!(
                 "photon maps traced with other settings: {key} is {theirs} in the file, {value} in \
@@ -487,6 +496,18 @@ mod tests {
             "photon maps traced with other settings: --seed is 0 in the file, 3 in this render \
              (given, or the default of the --estimator: `photons` takes the render's --estimator \
              and photon options)"
+        );
+        let older = PhotonOptions {
+            max_bounces: 64,
+            ..options
+        };
+        assert_eq!(
+            decode(&encode(&maps, &counts, 0xabc, &older), 0xabc, &options)
+                .err()
+                .unwrap(),
+            "photon maps traced with other settings: max_bounces is 64 in the file, 1024 in this \
+             photondiff (not an option: the file is from another version; trace the maps again \
+             with `photondiff photons`)"
         );
         // Every truncation is an error naming what is wrong, never a panic: too short for the
         // magic, or a file shorter than its header says.

@@ -24,10 +24,11 @@ pub struct PhotonOptions {
     /// `radius_limits`. Default 1; progressive passes shrink the two maps on schedules of their
     /// own ([`crate::render::passes`]).
     pub global_area_scale: f64,
-    /// Maximum number of bounces of a photon path. Default 64. Russian roulette ends paths;
-    /// this only bounds pathological ones (a closed mirror box), and cuts light: a closed scene
-    /// of albedo 0.8 loses `0.8^(n+1)` of its light at `n` bounces, 2.3% at the former 16,
-    /// 6e-7 at 64.
+    /// Maximum number of surfaces a photon path meets. Default 1024, as the light tracer's
+    /// ([`crate::reference::light_tracer`]). Russian roulette ends paths; this only bounds
+    /// pathological ones (a closed mirror box), and cuts light: a closed scene of albedo `a`
+    /// loses `a^n` of its light at `n` surfaces. At the former 64 a closed sphere of albedo
+    /// 0.95 stored 0.963 of its photons' wall meetings (`1 - 0.95^64`), at 1024 all but 2e-23.
     pub max_bounces: u32,
     /// Footprint guards, as fractions of the scene's bounding-box diagonal:
     /// `(min radius, max radius)`. Default `(1e-5, 0.02)`.
@@ -63,7 +64,7 @@ impl Default for PhotonOptions {
             caustic_photons: 20_000,
             overlap: 32.0,
             global_area_scale: 1.0,
-            max_bounces: 64,
+            max_bounces: 1024,
             radius_limits: (1e-5, 0.02),
             max_anisotropy: 20.0,
             seed: 0,
