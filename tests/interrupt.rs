@@ -99,6 +99,22 @@ fn the_first_ctrl_c_keeps_the_passes_done() {
     let passes = json["progressive"]["passes"].as_u64().unwrap();
     assert!(passes >= 1, "{json}");
     assert_eq!(json["progressive"]["stop"], "interrupted");
+    // The seconds per pass are the kept passes': a pass cut short is a stage of its own, not
+    // in them (counted in, one pass of 1.49 s read 2.78 s).
+    let stages = json["stages"].as_array().unwrap();
+    let seconds = |name: Option<&str>| -> f64 {
+        stages
+            .iter()
+            .filter(|s| name.is_none_or(|n| s["name"] == n))
+            .map(|s| s["seconds"].as_f64().unwrap())
+            .sum()
+    };
+    let per_pass = json["progressive"]["seconds_per_pass"].as_f64().unwrap();
+    let dropped = seconds(Some("dropped pass (interrupted)"));
+    assert!(
+        per_pass * passes as f64 <= seconds(None) - dropped + 0.05,
+        "{json}"
+    );
     assert_eq!(
         stderr.trim(),
         format!(
@@ -247,4 +263,73 @@ fn ctrl_c_ends_light_tracing_with_the_paths_traced() {
     let film = Film::read_exr(&dir.path().join("img.exr")).unwrap();
     assert!(film.pixels.iter().all(|p| p.is_finite()));
     assert!(film.pixels.iter().any(|p| p.max_element() > 0.0));
+}
+
+/// A pass cut short by Ctrl-C is left out of the seconds per pass: its time is a stage of its
+/// own. Counted in, one pass of 1.49 s read 2.78 s each. The signal comes half a pass after the
+/// first pass's line on standard error, so that the second is under way.
+#[test]
+fn a_dropped_pass_is_not_in_the_seconds_per_pass() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("scene.toml");
+    std::fs::write(&file, large()).unwrap();
+    let mut child = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args([
+            "render",
+            "--threads",
+            "1",
+            "--view-grid",
+            "2",
+            "--passes",
+            "1000",
+        ])
+        .arg("-o")
+        .arg(dir.path().join("img.exr"))
+        .arg("--stats-json")
+        .arg(dir.path().join("stats.json"))
+        .arg(&file)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
+    // "passes: 1 of 1000 done, 2.3 s, ..." (not a terminal: lines, not a bar).
+    let first = lines
+        .by_ref()
+        .map_while(Result::ok)
+        .find_map(|l| {
+            l.strip_prefix("passes: 1 of 1000 done, ")?
+                .split(' ')
+                .next()?
+                .parse::<f64>()
+                .ok()
+        })
+        .expect("no line for the first pass");
+    std::thread::sleep(Duration::from_secs_f64(first / 2.0));
+    interrupt(&child, "INT");
+    let rest: Vec<String> = lines.map_while(Result::ok).collect();
+    let status = wait(&mut child);
+    assert_eq!(status.code(), Some(130), "{rest:?}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
+            .unwrap();
+    let stages = json["stages"].as_array().unwrap();
+    let seconds = |name: &str| -> f64 {
+        stages
+            .iter()
+            .filter(|s| s["name"] == name)
+            .map(|s| s["seconds"].as_f64().unwrap())
+            .sum()
+    };
+    let dropped = seconds("dropped pass (interrupted)");
+    assert!(dropped > 0.0, "no pass was cut short: {json}");
+    let passes = json["progressive"]["passes"].as_f64().unwrap();
+    let kept = seconds("trace photons") + seconds("render");
+    let per_pass = json["progressive"]["seconds_per_pass"].as_f64().unwrap();
+    // The kept passes' stages, and the edge search before the first pass, at most.
+    assert!(
+        per_pass * passes >= kept && per_pass * passes < kept + 0.5 * dropped + 0.2,
+        "{per_pass} s a pass over {passes}, stages {kept} s, dropped {dropped} s: {json}"
+    );
 }

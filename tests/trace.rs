@@ -338,6 +338,7 @@ fn reference_traces_its_stages_and_writes_its_noise_per_region() {
         "direct light, half A",
         "direct light, half B",
         "light tracing",
+        "find regions",
         "write images",
     ];
     assert_eq!(stages, expected);

@@ -70,11 +70,12 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     let (scene, hash) = stats.time("load scene", || {
         super::load_scene(&args.scene, !args.quiet, &outputs)
     })?;
+    let mark = photondiff::util::memory::ResidentMark::now();
     let (device, embree, bvh) = stats.time("build BVH", || {
         args.bvh
             .build(&scene, &args.scene, args.threads, !args.quiet)
     })?;
-    stats.memory = MemoryStats::after_build(&scene, &device, bvh);
+    stats.memory = MemoryStats::after_build(&scene, &device, bvh, mark);
     super::warn_photon_memory(
         &args.scene,
         options.global_photons + options.caustic_photons,

@@ -275,11 +275,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         photondiff::stderr_line!("photondiff: warning: {}: {warning}", args.scene.display());
     }
     stats.mesh_repairs = scene.mesh_report();
+    let mark = photondiff::util::memory::ResidentMark::now();
     let (device, embree, bvh) = stats.time("build BVH", || {
         args.bvh
             .build(&scene, &args.scene, args.threads, !args.quiet)
     })?;
-    stats.memory = MemoryStats::after_build(&scene, &device, bvh);
+    stats.memory = MemoryStats::after_build(&scene, &device, bvh, mark);
     let options = RenderOptions::default()
         .with_view_grid(args.view_grid)
         .with_edge_grid(

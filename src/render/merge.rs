@@ -352,13 +352,22 @@ pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
 /// The memory of the whole from the parts' `memories`: each part loaded the same scene and
 /// built the same BVH, so its sizes (triangles, mesh and BVH bytes, the BVH's settings) are the
 /// first part's, not their sum (four tiles read four times the triangles); the peaks (the BVH
-/// build's, the process's resident memory) the largest part's, the most one machine needed.
+/// build's, the process's resident memory) and what the build kept resident (measured, so not
+/// quite alike) the largest part's, the most one machine needed.
 fn merge_memory(memories: &[Value]) -> Value {
     let mut memory = memories[0].clone();
-    for key in ["bvh_build_peak_bytes", "peak_resident_bytes"] {
+    for key in [
+        "bvh_build_peak_bytes",
+        "peak_resident_bytes",
+        "bvh_resident_bytes",
+    ] {
         let most = memories.iter().filter_map(|m| m[key].as_u64()).max();
         memory[key] = most.unwrap_or(0).into();
     }
+    // Unknown (null) in a part where the kernel's peak could not be restarted: the largest
+    // known, null where none is.
+    let key = "bvh_build_resident_peak_bytes";
+    memory[key] = memories.iter().filter_map(|m| m[key].as_u64()).max().into();
     let (peak, triangles) = (
         memory["peak_resident_bytes"].as_u64(),
         memory["triangles"].as_u64(),
@@ -551,6 +560,9 @@ mod tests {
                 "rays": {"camera": 10},
                 "memory": {"triangles": 100, "mesh_bytes": 2400, "bvh_bytes": 5000,
                            "bvh_build_peak_bytes": peak / 2, "peak_resident_bytes": peak,
+                           "bvh_resident_bytes": peak / 4,
+                           "bvh_build_resident_peak_bytes":
+                               (peak != 3000).then_some(peak / 3),
                            "peak_bytes_per_triangle": peak as f64 / 100.0},
                 "mesh_repairs": {"degenerate_triangles": 3},
                 "photon_maps": [{"class": "Caustic", "stored": stored, "power": 1.0}],
@@ -578,6 +590,9 @@ mod tests {
         assert_eq!(m["bvh_bytes"], 5000);
         assert_eq!(m["peak_resident_bytes"], 3000);
         assert_eq!(m["bvh_build_peak_bytes"], 1500);
+        assert_eq!(m["bvh_resident_bytes"], 750);
+        // The part of peak 3000 could not measure it (null): the largest of the others.
+        assert_eq!(m["bvh_build_resident_peak_bytes"], 666);
         assert_eq!(m["peak_bytes_per_triangle"], 30.0);
         assert_eq!(merged["mesh_repairs"]["degenerate_triangles"], 3);
         assert_eq!(merged["photon_maps"][0]["stored"], 30);

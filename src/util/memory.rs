@@ -1,5 +1,7 @@
 //! The process's resident memory, as Linux reports it in `/proc/self/status`.
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 /// A field of `/proc/self/status` in bytes (`VmRSS`, `VmHWM`, ...), or `None` where the file
 /// or the field is missing (not Linux, or a restricted /proc).
 pub fn status_bytes(field: &str) -> Option<u64> {
@@ -57,9 +59,54 @@ fn cgroup_limit() -> Option<u64> {
     max.trim().parse().ok()
 }
 
-/// The most resident memory the process has held so far (`VmHWM`), 0 where unknown.
+/// The process's peak before [`ResidentMark::now`] last restarted the kernel's (`VmHWM`).
+static EARLIER_PEAK: AtomicU64 = AtomicU64::new(0);
+
+/// The most resident memory the process has held so far (`VmHWM`, and the peak before a
+/// [`ResidentMark`] restarted it), 0 where unknown.
 pub fn peak_resident_bytes() -> u64 {
-    status_bytes("VmHWM").unwrap_or(0)
+    let now = status_bytes("VmHWM").unwrap_or(0);
+    now.max(EARLIER_PEAK.load(Ordering::Relaxed))
+}
+
+/// The resident memory at the start of a stage, to tell what the stage adds: at its end and at
+/// its peak. Embree's memory monitor counts the blocks it reserves, not the pages it writes: a
+/// compact BVH of 8.4M triangles said 560 MB where the process held 310 MB beside its meshes.
+#[derive(Debug, Clone, Copy)]
+pub struct ResidentMark {
+    resident: u64,
+    /// Whether the kernel's peak was restarted at the mark (`/proc/self/clear_refs`), so that
+    /// its peak from then on is the stage's.
+    peak_restarted: bool,
+}
+
+impl ResidentMark {
+    /// Marks now. The kernel's peak is restarted (its value so far is kept for
+    /// [`peak_resident_bytes`]), so the mark cannot be taken twice at once: one per stage.
+    pub fn now() -> Self {
+        EARLIER_PEAK.fetch_max(status_bytes("VmHWM").unwrap_or(0), Ordering::Relaxed);
+        // "5" resets the peak resident size to the current one (Linux 4.0 and later).
+        let peak_restarted = std::fs::write("/proc/self/clear_refs", "5").is_ok();
+        Self {
+            resident: resident_bytes(),
+            peak_restarted,
+        }
+    }
+
+    /// Resident bytes added since the mark (0 where fewer are resident now).
+    pub fn added(&self) -> u64 {
+        resident_bytes().saturating_sub(self.resident)
+    }
+
+    /// The most resident bytes added at once since the mark, `None` where the kernel's peak
+    /// could not be restarted.
+    pub fn most_added(&self) -> Option<u64> {
+        self.peak_restarted.then(|| {
+            status_bytes("VmHWM")
+                .unwrap_or(0)
+                .saturating_sub(self.resident)
+        })
+    }
 }
 
 /// The resident memory the process holds now (`VmRSS`), 0 where unknown.
@@ -70,6 +117,27 @@ pub fn resident_bytes() -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A mark sees a block written after it, in what is added and at the peak, and the process's
+    /// peak keeps what it held before the mark restarted the kernel's.
+    #[test]
+    fn a_mark_measures_what_is_added_after_it() {
+        let earlier = vec![1u8; 96 << 20];
+        assert!(earlier.iter().step_by(4096).all(|&b| b == 1));
+        drop(earlier);
+        let peak = peak_resident_bytes();
+        let mark = ResidentMark::now();
+        let block = vec![1u8; 64 << 20];
+        assert!(block.iter().step_by(4096).all(|&b| b == 1));
+        // Other tests of this process allocate too: only lower bounds hold.
+        assert!(mark.added() >= 48 << 20, "{}", mark.added());
+        assert!(mark.most_added().unwrap() >= 48 << 20);
+        assert!(
+            peak_resident_bytes() >= peak,
+            "{peak} -> {}",
+            peak_resident_bytes()
+        );
+    }
 
     /// The limit is read from the limits' text: a child under `ulimit -v` (in KiB) shows its
     /// own; an unlimited one reads as none.
