@@ -30,7 +30,8 @@ pub struct PhotonOptions {
     /// loses `a^n` of its light at `n` surfaces. At the former 64 a closed sphere of albedo
     /// 0.95 stored 0.963 of its photons' wall meetings (`1 - 0.95^64`), at 1024 all but 2e-23.
     pub max_bounces: u32,
-    /// Footprint guards, as fractions of the scene's bounding-box diagonal:
+    /// Footprint guards, as fractions of the scene's bounding-box diagonal (at most twice the
+    /// one around the camera, the lights and the specular objects: [`Scene::footprint_extent`]):
     /// `(min radius, max radius)`. Default `(1e-5, 0.02)`.
     pub radius_limits: (f64, f64),
     /// Largest ratio of a footprint's semi-axes. Default 20.
@@ -76,9 +77,10 @@ impl Default for PhotonOptions {
 }
 
 impl PhotonOptions {
-    /// The footprint limits for `scene` (the caustic map's).
+    /// The footprint limits for `scene` (the caustic map's): `radius_limits` times
+    /// [`Scene::footprint_extent`].
     pub fn limits(&self, scene: &Scene) -> FootprintLimits {
-        let extent = scene.extent();
+        let extent = scene.footprint_extent();
         FootprintLimits {
             min_radius: self.radius_limits.0 * extent,
             max_radius: self.radius_limits.1 * extent,
