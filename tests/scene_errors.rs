@@ -290,6 +290,12 @@ fn unrenderable_eyes_lights_and_intensities_are_refused() {
             ("intensity = [10.0, 10.0, 10.0]", "intensity = [10.0, 1e300, 10.0]"),
             "lights[0].intensity: components must be at most 1e20, got [10.0, 1e300, 10.0]",
         ),
+        (
+            ("intensity = [10.0, 10.0, 10.0]", "intensity = [6e-100, 0.0, 6e-100]"),
+            "lights[0].intensity: components must be 0 or at least 1e-30 (photon powers are \
+             single precision; scale every light up and the image scales with them), got \
+             [6e-100, 0.0, 6e-100]",
+        ),
     ];
     for ((from, to), message) in cases {
         assert!(scene.contains(from), "{from}");
@@ -303,15 +309,17 @@ fn unrenderable_eyes_lights_and_intensities_are_refused() {
         error_of(&quad, &[]),
         "lights[0].radiance: components must be at most 1e20, got [1e21, 0.0, 0.0]"
     );
-    // The largest accepted still loads.
-    let strongest = scene.replace(
-        "intensity = [10.0, 10.0, 10.0]",
-        "intensity = [1e20, 0.0, 0.0]",
-    );
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("scene.toml");
-    std::fs::write(&path, strongest).unwrap();
-    assert!(load_scene(&path).is_ok());
+    // The largest and the smallest accepted still load.
+    for accepted in ["[1e20, 0.0, 0.0]", "[1e-30, 0.0, 0.0]"] {
+        let light = scene.replace(
+            "intensity = [10.0, 10.0, 10.0]",
+            &format!("intensity = {accepted}"),
+        );
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("scene.toml");
+        std::fs::write(&path, light).unwrap();
+        assert!(load_scene(&path).is_ok(), "{accepted}");
+    }
 }
 
 #[test]

@@ -248,12 +248,25 @@ fn point(field: &str, v: Vec3) -> Result<DVec3, String> {
 /// are single precision (at most 3.4e38), and a stronger light comes out as infinity.
 pub const MAX_LIGHT: f64 = 1.0e20;
 
-/// A light's intensity or radiance: non-negative and at most [`MAX_LIGHT`].
+/// Smallest light intensity or radiance accepted but 0: photon powers are single precision
+/// (at least 1.2e-38 at full precision; a light of 6e-100 W/sr stored a caustic map of power 0
+/// and rendered its caustic black without a word), and the passes' noise estimate squares the
+/// pixels (a light of 6e-170 W/sr read "noise 0.00%" and stopped `--target-noise` at once).
+pub const MIN_LIGHT: f64 = 1.0e-30;
+
+/// A light's intensity or radiance: non-negative, each component 0 or within
+/// [`MIN_LIGHT`]..=[`MAX_LIGHT`].
 fn emission(field: &str, v: Vec3) -> Result<DVec3, String> {
     let d = non_negative(field, v)?;
     if d.max_element() > MAX_LIGHT {
         return Err(format!(
             "{field}: components must be at most {MAX_LIGHT:e}, got {v:?}"
+        ));
+    }
+    if d.to_array().iter().any(|&c| c > 0.0 && c < MIN_LIGHT) {
+        return Err(format!(
+            "{field}: components must be 0 or at least {MIN_LIGHT:e} (photon powers are single \
+             precision; scale every light up and the image scales with them), got {v:?}"
         ));
     }
     Ok(d)
