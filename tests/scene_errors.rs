@@ -1054,9 +1054,28 @@ fn an_option_of_another_estimator_is_refused() {
              nearest photons have no footprints)",
         ),
         (
-            &["--estimator", "jensen", "--global-alpha", "0.9"][..],
+            &[
+                "--estimator",
+                "jensen",
+                "--global-alpha",
+                "0.9",
+                "--passes",
+                "2",
+            ][..],
             "--global-alpha does not apply to --estimator jensen without --gather-rays (its k \
              nearest photons have no footprints)",
+        ),
+        (
+            &["--estimator", "pd", "--alpha", "0.1"][..],
+            "--alpha does not apply to a one-pass render (one pass is the default of \
+             --estimator pd): it shrinks the footprints from one pass to the next; give \
+             --passes, --time-budget or --target-noise for more",
+        ),
+        (
+            &["--global-alpha", "0.5", "--passes", "1"][..],
+            "--global-alpha does not apply to a one-pass render (--passes 1): it shrinks the \
+             footprints from one pass to the next; give --passes, --time-budget or \
+             --target-noise for more",
         ),
         (
             &["--estimator", "lighttrace", "--view-grid", "2"][..],
@@ -1126,9 +1145,11 @@ fn an_option_of_another_estimator_is_refused() {
             "32",
             "--alpha",
             "0.5",
+            "--passes",
+            "2",
         ],
     );
-    assert_eq!(json["progressive"]["passes"], 1);
+    assert_eq!(json["progressive"]["passes"], 2);
 }
 
 /// An option the run cannot honour is refused before the scene is read: a large scene takes

@@ -65,7 +65,8 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE")]
     stats_json: Option<PathBuf>,
     /// Maximum number of mirror/glass bounces of a camera path, at most 256 (a path's bounces
-    /// are followed recursively, and glass splits each one in two; photon paths stop at 64).
+    /// are followed recursively, and glass splits each one in two; photon paths meet at most 1,024
+    /// surfaces, 64 mirror or glass surfaces in a row).
     #[arg(long, value_name = "N", default_value_t = 10,
           value_parser = clap::value_parser!(u32).range(0..=MAX_DEPTH as i64))]
     max_depth: u32,

@@ -69,8 +69,30 @@ pub(super) fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
         EstimatorKind::Integrated => DEFAULT_PASSES,
         _ => 1,
     };
+    let passes = passes.or(if open { None } else { Some(default) });
+    // The footprints shrink from one pass to the next: a one-pass render reads neither (the
+    // same image to the bit with --alpha 0.1 and 0.9).
+    let maps = !matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace);
+    if passes == Some(1) && maps {
+        for (id, option) in [("alpha", "--alpha"), ("global_alpha", "--global-alpha")] {
+            if args.given.iter().any(|g| g == id) {
+                let why = match args.passes {
+                    Some(_) => "--passes 1".to_string(),
+                    None => format!(
+                        "one pass is the default of --estimator {}",
+                        estimator_name(kind)
+                    ),
+                };
+                return Err(format!(
+                    "{option} does not apply to a one-pass render ({why}): it shrinks the \
+                     footprints from one pass to the next; give --passes, --time-budget or \
+                     --target-noise for more"
+                ));
+            }
+        }
+    }
     Ok(StopRules {
-        passes: passes.or(if open { None } else { Some(default) }),
+        passes,
         time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
         target_noise: args.target_noise,
         on_interrupt: true,
