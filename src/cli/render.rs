@@ -259,6 +259,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         // (and hashed, which the file must match too).
         let pass0 = pass_photons(&photon_options, args.alpha, args.global_alpha, 0);
         photondiff::photons::file::check(path, &pass0)?;
+        if stop.time_budget.is_some() && !args.quiet {
+            photondiff::stderr_line!(
+                "photondiff: warning: --time-budget with --photon-maps: pass 0 reads its photons \
+                 and the passes after it trace their own, so the time of a traced pass is known \
+                 only once one has run: the second pass may end past the budget"
+            );
+        }
     }
     let mut range_sum = None;
     super::start_trace(args.trace.as_deref())?;
