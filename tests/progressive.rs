@@ -350,22 +350,27 @@ fn pass_options_are_validated_with_one_line_errors() {
         (
             "--passes",
             "0",
-            "--passes must be a whole number of at least 1, got 0",
+            "--passes must be a whole number from 1 to 1000000, got 0",
         ),
         (
             "--passes",
             "-3",
-            "--passes must be a whole number of at least 1, got -3",
+            "--passes must be a whole number from 1 to 1000000, got -3",
         ),
         (
             "--passes",
             "nan",
-            "--passes must be a whole number of at least 1, got nan",
+            "--passes must be a whole number from 1 to 1000000, got nan",
         ),
         (
             "--passes",
             "2.5",
-            "--passes must be a whole number of at least 1, got 2.5",
+            "--passes must be a whole number from 1 to 1000000, got 2.5",
+        ),
+        (
+            "--passes",
+            "1000001",
+            "--passes must be a whole number from 1 to 1000000, got 1000001",
         ),
         (
             "--time-budget",
@@ -437,7 +442,7 @@ fn pass_options_are_validated_with_one_line_errors() {
         format!(
             "photondiff: warning: --threads {many}: this machine has {cores} cores; more threads \
              than cores take turns and run slower, not faster (0 = one per core)\n\
-             photondiff: error: --passes must be a whole number of at least 1, got 0\n"
+             photondiff: error: --passes must be a whole number from 1 to 1000000, got 0\n"
         )
     );
     let out = photondiff(&[

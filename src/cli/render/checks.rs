@@ -10,14 +10,19 @@ use photondiff::render::{StopRules, TileSplit};
 use std::ops::Range;
 
 /// The pass options as stop rules (for photon estimates and `direct`).
+/// The most passes a render takes: a pass's footprint schedule is a product over the passes
+/// before it (`passes::area_factor`), so pass 10^9 took 31 s to set up, and a range near 2^64
+/// never began.
+pub const MAX_PASSES: u64 = 1_000_000;
+
 pub(super) fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
     let passes = match &args.passes {
         None => None,
         Some(text) => match text.trim().parse::<u64>() {
-            Ok(n) if n >= 1 => Some(n),
+            Ok(n) if (1..=MAX_PASSES).contains(&n) => Some(n),
             _ => {
                 return Err(format!(
-                    "--passes must be a whole number of at least 1, got {text}"
+                    "--passes must be a whole number from 1 to {MAX_PASSES}, got {text}"
                 ))
             }
         },
