@@ -1388,16 +1388,28 @@ fn walk(dir: &Path) -> Vec<String> {
 
 /// Light tracing reaches a camera inside glass by no path: `render --estimator lighttrace`
 /// and `reference` say so (their images were black without a word); a camera outside, even
-/// one looking at the glass, is not warned about.
+/// one looking at the glass, is not warned about, nor one behind a glass sheet (facing away
+/// from it, the camera seeing its back: the traced image was not black, and the warning said
+/// it would be).
 #[test]
 fn a_camera_inside_glass_is_warned_about_by_light_tracing() {
     let dir = tempfile::tempdir().unwrap();
     let canonical = include_str!("../scenes/caustic-sphere.toml")
         .replace("width = 640", "width = 32")
         .replace("height = 480", "height = 24");
-    for (eye, warned) in [("[0.0, 1.0, 0.2]", true), ("[0.0, 1.0, 3.0]", false)] {
+    let sphere = "type = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\n";
+    assert!(canonical.contains(sphere));
+    // Facing down (edge_u x edge_v = -y), seen from above along the view direction.
+    let sheet = "type = \"quad\"\ncorner = [-1.5, 1.0, -1.5]\nedge_u = [3.0, 0.0, 0.0]\n\
+                 edge_v = [0.0, 0.0, 3.0]\n";
+    let with_sheet = canonical.replace(sphere, sheet);
+    for (text, eye, warned) in [
+        (&canonical, "[0.0, 1.0, 0.2]", true),
+        (&canonical, "[0.0, 1.0, 3.0]", false),
+        (&with_sheet, "[2.5, 4.5, 7.0]", false),
+    ] {
         let scene = dir.path().join("scene.toml");
-        let text = canonical.replace("eye = [2.5, 4.5, 7.0]", &format!("eye = {eye}"));
+        let text = text.replace("eye = [2.5, 4.5, 7.0]", &format!("eye = {eye}"));
         std::fs::write(&scene, text).unwrap();
         let out = dir.path().join("x.exr");
         let (scene, out) = (scene.to_str().unwrap(), out.to_str().unwrap());

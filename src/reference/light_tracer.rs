@@ -401,7 +401,9 @@ pub fn pixels_seeing_specular(scene: &Scene, embree: &embree::Scene) -> u64 {
 /// only along straight segments through open space, so such a camera sees nothing of it (its
 /// image is black without a word). Along each axis and the view direction, the first glass
 /// surface met from its inside (the geometric normal, which the winding sets, along the ray)
-/// says so; a direction whose first hit is not glass says nothing.
+/// says so, unless a direction leaves the scene (the glass does not close around the camera:
+/// a single glass sheet seen from behind was taken for it, and its traced image was not black)
+/// or meets that glass from outside; a direction whose first hit is not glass says nothing.
 pub fn camera_in_glass(scene: &Scene, embree: &embree::Scene) -> Option<String> {
     let c = &scene.camera;
     let epsilon = scene.ray_epsilon();
@@ -414,12 +416,22 @@ pub fn camera_in_glass(scene: &Scene, embree: &embree::Scene) -> Option<String> 
         DVec3::Z,
         DVec3::NEG_Z,
     ];
-    directions.iter().find_map(|&d| {
-        let hit = embree.intersect(&Ray::new(c.eye, d))?;
-        let mesh = &scene.meshes[hit.geom_id as usize];
-        let inside = matches!(mesh.material, crate::scene::Material::Glass { .. })
-            && hit.geometric_normal.dot(d) > 0.0
-            && hit.t > epsilon;
-        inside.then(|| mesh.name.clone())
-    })
+    let hits: Vec<(u32, bool)> = directions
+        .iter()
+        .map(|&d| {
+            let hit = embree.intersect(&Ray::new(c.eye, d))?;
+            let from_inside = hit.geometric_normal.dot(d) > 0.0 && hit.t > epsilon;
+            Some((hit.geom_id, from_inside))
+        })
+        .collect::<Option<_>>()?;
+    let glass = |id: u32| {
+        matches!(
+            scene.meshes[id as usize].material,
+            crate::scene::Material::Glass { .. }
+        )
+    };
+    let &(id, _) = hits.iter().find(|&&(id, inside)| inside && glass(id))?;
+    hits.iter()
+        .all(|&(other, inside)| other != id || inside)
+        .then(|| scene.meshes[id as usize].name.clone())
 }
