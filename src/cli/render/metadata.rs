@@ -10,7 +10,8 @@ use photondiff::render::RenderOptions;
 use photondiff::scene::hash::hex;
 
 /// What a render's settings were, as `photondiff/...` attributes (with its statistics, and the
-/// progressive passes' report where there is one).
+/// progressive passes' report where there is one): the settings its estimator reads, no more
+/// (`--estimator direct` wrote `photons=100000` and `k`, options its command line refuses).
 pub(super) fn exr_metadata(
     args: &RenderArgs,
     kind: EstimatorKind,
@@ -50,8 +51,15 @@ pub(super) fn exr_metadata(
         ("stats", serde_json::to_string(stats).unwrap_or_default()),
     ]
     .into_iter()
+    .filter(|(name, _)| reads(kind, args.gather_rays, name))
     .map(|(name, value)| (format!("photondiff/{name}"), value))
     .collect();
+    if kind == EstimatorKind::Lighttrace {
+        metadata.push((
+            "photondiff/light_paths".to_string(),
+            stats.light_paths.to_string(),
+        ));
+    }
     if let Some(p) = &stats.progressive {
         metadata.extend(pass_metadata(p));
     }
@@ -73,4 +81,41 @@ fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
     .into_iter()
     .map(|(name, value)| (format!("photondiff/{name}"), value))
     .collect()
+}
+
+/// Whether a render with estimator `kind` (and `gather_rays` final-gather rays) reads the
+/// setting `name`.
+fn reads(kind: EstimatorKind, gather_rays: u32, name: &str) -> bool {
+    use EstimatorKind::*;
+    let maps = !matches!(kind, Direct | Lighttrace);
+    match name {
+        "photons" | "caustic_photons" | "overlap" | "global_aim" | "probe_walls" => maps,
+        "gather_rays" => maps,
+        "gather_near" => maps && gather_rays > 0,
+        "k" => kind == Jensen,
+        "ms_grid" => kind == Multisampled,
+        "coplanar_vertices" => kind == Coplanar,
+        "view_grid" | "edge_grid" | "max_depth" | "area_samples" | "footprint_shadow_rays" => {
+            kind != Lighttrace
+        }
+        _ => true,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each estimator's attributes name the options it reads: `direct` no photon counts,
+    /// `lighttrace` no camera grids, `pd` no `k`.
+    #[test]
+    fn attributes_name_what_the_estimator_reads() {
+        use EstimatorKind::*;
+        assert!(!reads(Direct, 0, "photons") && reads(Direct, 0, "max_depth"));
+        assert!(!reads(Lighttrace, 0, "view_grid") && !reads(Lighttrace, 0, "caustic_photons"));
+        assert!(reads(Pd, 0, "photons") && !reads(Pd, 0, "k") && !reads(Pd, 0, "gather_near"));
+        assert!(reads(Pd, 16, "gather_near") && reads(Jensen, 0, "k"));
+        assert!(reads(Multisampled, 0, "ms_grid") && !reads(Integrated, 0, "ms_grid"));
+        assert!(reads(Coplanar, 0, "coplanar_vertices") && reads(Lighttrace, 0, "seed"));
+    }
 }
