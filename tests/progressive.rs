@@ -682,3 +682,41 @@ fn a_target_noise_for_an_estimate_that_does_not_converge_is_warned_about() {
     }
     assert_eq!(warning("integrated"), None);
 }
+
+/// `lighttrace` stopped by its time budget says so, whatever `--quiet` says: the image holds
+/// fewer paths than asked for (it said nothing).
+#[test]
+fn a_light_trace_cut_by_its_time_budget_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, common::SMALL_SCENE).unwrap();
+    let stats = dir.path().join("stats.json");
+    let out = common::run_ok([
+        "render".as_ref(),
+        scene.as_os_str(),
+        "-q".as_ref(),
+        "--estimator".as_ref(),
+        "lighttrace".as_ref(),
+        "--light-paths".as_ref(),
+        "100000000000".as_ref(),
+        "--time-budget".as_ref(),
+        "0.5".as_ref(),
+        "-o".as_ref(),
+        dir.path().join("lt.exr").as_os_str(),
+        "--stats-json".as_ref(),
+        stats.as_os_str(),
+    ]);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let traced = json["light_paths"].as_u64().unwrap();
+    assert!(traced > 0 && traced < 100_000_000_000, "{traced}");
+    // 10^11 paths planned as an even number of whole chunks of 65,536: 1,525,880 of them.
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.ends_with(&format!(
+            "\nphotondiff: the time budget stopped light tracing after {traced} of 100000071680 \
+             light paths\n"
+        )),
+        "{stderr}"
+    );
+}

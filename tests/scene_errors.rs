@@ -548,6 +548,52 @@ fn an_image_beyond_the_process_memory_is_refused_at_once() {
     assert_eq!(out.status.code(), Some(1));
 }
 
+/// A pass-range part holds its exact sums beside the film, more than twice a whole render's
+/// bytes a pixel: one whose pixels cannot fit is refused before any work (4096 x 3072 under a
+/// 3 GB limit passed the whole render's check and aborted 21 s later), and its tile may fit.
+#[test]
+fn a_pass_range_part_beyond_the_process_memory_is_refused_at_once() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let camera = CAMERA
+        .replace("width = 32", "width = 4096")
+        .replace("height = 24", "height = 3072");
+    std::fs::write(&scene, format!("{camera}{REST}")).unwrap();
+    let run = |extra: &str| {
+        Command::new("sh")
+            .arg("-c")
+            .arg(format!(
+                "ulimit -v 3000000; exec '{exe}' render '{}' -o '{}' --estimator direct -q \
+                 --passes 2 --pass-range 0..1 {extra}",
+                scene.display(),
+                dir.path().join("sub/x.exr").display()
+            ))
+            .output()
+            .unwrap()
+    };
+    let out = run("");
+    // (After the warning of a scene without shapes.)
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.ends_with(
+            "\nphotondiff: error: --pass-range: 12582912 pixels need about 5.0 GB for a part's \
+             exact sums (about 400 bytes each), more than the 3.1 GB this process may use: split \
+             the image into tiles too (--tile)\n"
+        ),
+        "{stderr}"
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(!dir.path().join("sub").exists());
+    // A quarter of it (12 of 48 rows of 64-pixel tiles) fits.
+    let out = run("--tile 0/4 --view-grid 1 --footprint-shadow-rays 1");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// Outputs that name one of the scene's mesh files (a shape's, a placed `[meshes.NAME]`'s or
 /// an unplaced one's) are refused once the scene is read, before anything is written: every
 /// command replaced the mesh and exited 0, and the next run could not read it.

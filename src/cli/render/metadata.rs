@@ -61,7 +61,11 @@ pub(super) fn exr_metadata(
         ));
     }
     if let Some(p) = &stats.progressive {
-        metadata.extend(pass_metadata(p));
+        metadata.extend(
+            pass_metadata(p)
+                .into_iter()
+                .filter(|(name, _)| reads(kind, args.gather_rays, &name["photondiff/".len()..])),
+        );
     }
     metadata
 }
@@ -89,7 +93,10 @@ fn reads(kind: EstimatorKind, gather_rays: u32, name: &str) -> bool {
     use EstimatorKind::*;
     let maps = !matches!(kind, Direct | Lighttrace);
     match name {
-        "photons" | "caustic_photons" | "overlap" | "global_aim" | "probe_walls" => maps,
+        "photons" | "caustic_photons" | "global_aim" | "probe_walls" | "alpha" => maps,
+        // Jensen's k nearest photons have no footprints, unless final gathering sizes its
+        // radiance points by them.
+        "overlap" | "global_alpha" => maps && (kind != Jensen || gather_rays > 0),
         "gather_rays" => maps,
         "gather_near" => maps && gather_rays > 0,
         "k" => kind == Jensen,
@@ -117,5 +124,9 @@ mod tests {
         assert!(reads(Pd, 16, "gather_near") && reads(Jensen, 0, "k"));
         assert!(reads(Multisampled, 0, "ms_grid") && !reads(Integrated, 0, "ms_grid"));
         assert!(reads(Coplanar, 0, "coplanar_vertices") && reads(Lighttrace, 0, "seed"));
+        assert!(!reads(Direct, 0, "alpha") && !reads(Jensen, 0, "overlap"));
+        assert!(reads(Jensen, 0, "alpha") && !reads(Jensen, 0, "global_alpha"));
+        assert!(reads(Jensen, 4, "global_alpha") && reads(Pd, 0, "global_alpha"));
+        assert!(reads(Direct, 0, "passes") && reads(Direct, 0, "noise_whole"));
     }
 }
