@@ -30,8 +30,9 @@ pub struct PhotonOptions {
     /// loses `a^n` of its light at `n` surfaces. At the former 64 a closed sphere of albedo
     /// 0.95 stored 0.963 of its photons' wall meetings (`1 - 0.95^64`), at 1024 all but 2e-23.
     pub max_bounces: u32,
-    /// Footprint guards, as fractions of the scene's bounding-box diagonal (at most twice the
-    /// one around the camera, the lights and the specular objects: [`Scene::footprint_extent`]):
+    /// Footprint guards, as fractions of the scene's bounding-box diagonal (for the caustic
+    /// map, at most twice the one around the camera, the lights and the specular objects:
+    /// [`Scene::footprint_extent`]):
     /// `(min radius, max radius)`. Default `(1e-5, 0.02)`.
     pub radius_limits: (f64, f64),
     /// Largest ratio of a footprint's semi-axes. Default 20.
@@ -77,10 +78,14 @@ impl Default for PhotonOptions {
 }
 
 impl PhotonOptions {
-    /// The footprint limits for `scene` (the caustic map's): `radius_limits` times
-    /// [`Scene::footprint_extent`].
+    /// The scene-wide footprint limits: `radius_limits` times [`Scene::extent`]; the global
+    /// map's before its area scale, and the estimators' largest radius (`jensen`'s over both
+    /// maps, the radiance map's points).
     pub fn limits(&self, scene: &Scene) -> FootprintLimits {
-        let extent = scene.footprint_extent();
+        self.limits_over(scene.extent())
+    }
+
+    fn limits_over(&self, extent: f64) -> FootprintLimits {
         FootprintLimits {
             min_radius: self.radius_limits.0 * extent,
             max_radius: self.radius_limits.1 * extent,
@@ -88,13 +93,17 @@ impl PhotonOptions {
         }
     }
 
-    /// The footprint limits for `scene` of the map of `class`: the global map's (and the
-    /// radiance map's) radii scaled by `sqrt(global_area_scale)`.
+    /// The footprint limits for `scene` of the map of `class`: the caustic (and direct) map's
+    /// over [`Scene::footprint_extent`], where the caustics are (a floor reaching far away does
+    /// not widen them); the global map's (and the radiance map's) the scene-wide [`Self::limits`]
+    /// with radii scaled by `sqrt(global_area_scale)`: its photons land anywhere (a closed room
+    /// around the camera and the light is all diffuse, and its footprints clamped to the box
+    /// around those two read a closed sphere 2.4% dark).
     pub fn class_limits(&self, scene: &Scene, class: PathClass) -> FootprintLimits {
-        let limits = self.limits(scene);
         match class {
-            PathClass::Caustic | PathClass::Direct => limits,
+            PathClass::Caustic | PathClass::Direct => self.limits_over(scene.footprint_extent()),
             PathClass::Global | PathClass::AllDiffuse => {
+                let limits = self.limits(scene);
                 let r = self.global_area_scale.sqrt();
                 FootprintLimits {
                     min_radius: limits.min_radius * r,

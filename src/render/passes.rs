@@ -572,8 +572,8 @@ mod tests {
     #[test]
     fn passes_after_loaded_maps_are_timed_without_the_first() {
         assert_eq!(super::pass_seconds(3.0, 2, None), 1.5);
-        assert_eq!(super::pass_seconds(0.4, 1, Some(0.4)), 0.4);
-        assert_eq!(super::pass_seconds(5.6, 3, Some(0.4)), 2.6);
+        assert_eq!(super::pass_seconds(0.5, 1, Some(0.5)), 0.5);
+        assert_eq!(super::pass_seconds(5.5, 3, Some(0.5)), 2.5);
     }
 
     /// The EXR attribute's name for a stop is the statistics JSON's (it read `timebudget`
