@@ -8,7 +8,7 @@ use crate::photons::footprint::Guards;
 use crate::photons::map::{PathClass, PhotonMap};
 use crate::photons::options::PhotonOptions;
 use crate::photons::radiance_map::{RadianceMap, RadianceSample};
-use crate::photons::trace::{max_emissions, PhotonTracer, StopRule, TraceCounts};
+use crate::photons::trace::{emission_stopped, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
 
@@ -154,7 +154,7 @@ fn record(
             power,
             guards,
             asked: asked as u64,
-            cap_reached: c.stored < asked as u64 && c.emitted >= max_emissions(class, asked),
+            cap_reached: emission_stopped(class, asked, c),
         });
     }
 }

@@ -198,21 +198,33 @@ pub struct MapStats {
     pub guards: Guards,
     /// Photons asked for.
     pub asked: u64,
-    /// Whether emission stopped at its cap ([`crate::photons::trace::max_emissions`]) with
+    /// Whether emission stopped at its cap ([`crate::photons::trace::max_emissions`]), or a
+    /// caustic map early with none stored ([`crate::photons::trace::emission_stopped`]), with
     /// fewer photons stored than asked for.
     pub cap_reached: bool,
 }
 
 impl MapStats {
+    /// Whether emission stopped before its cap, with none stored
+    /// ([`crate::photons::trace::EMPTY_CAUSTIC_SHARE`]).
+    fn stopped_early(&self) -> bool {
+        self.cap_reached
+            && self.emitted < crate::photons::trace::max_emissions(self.class, self.asked as usize)
+    }
+
     /// What to tell the user when the map holds fewer photons than asked for, if it does.
     pub fn shortfall(&self) -> Option<String> {
         self.cap_reached.then(|| {
             format!(
-                "{} map: {} of {} photons stored: emission stopped at its cap of {} emissions; \
-                 this scene rarely stores such photons",
+                "{} map: {} of {} photons stored: emission stopped {} {} emissions; this scene \
+                 rarely stores such photons",
                 self.class.name(),
                 self.stored,
                 self.asked,
+                match self.stopped_early() {
+                    true => "with none stored after",
+                    false => "at its cap of",
+                },
                 self.emitted,
             )
         })
@@ -325,10 +337,12 @@ impl Stats {
             );
         }
         for m in &self.photon_maps {
-            let cap = if m.cap_reached {
-                format!(" (of {} asked: emission stopped at its cap)", m.asked)
-            } else {
-                String::new()
+            let cap = match (m.cap_reached, m.stopped_early()) {
+                (true, true) => {
+                    format!(" (of {} asked: emission stopped with none stored)", m.asked)
+                }
+                (true, false) => format!(" (of {} asked: emission stopped at its cap)", m.asked),
+                _ => String::new(),
             };
             out += &format!(
                 "  {} map: {} photons stored{cap} from {} emissions ({} rays), power {} W; \
