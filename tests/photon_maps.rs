@@ -832,7 +832,10 @@ fn a_caustic_map_that_stores_nothing_stops_early() {
         "/scenes/caustic-sphere.toml"
     ))
     .unwrap();
-    let under = text.replace("position = [-4.0, 4.0, -1.0]", "position = [-4.0, -4.0, -1.0]");
+    let under = text.replace(
+        "position = [-4.0, 4.0, -1.0]",
+        "position = [-4.0, -4.0, -1.0]",
+    );
     assert_ne!(under, text);
     let asked = 2000;
     let counts = |text: &str| {
@@ -843,7 +846,9 @@ fn a_caustic_map_that_stores_nothing_stops_early() {
         let tracer = PhotonTracer::new(&scene, &embree, &options);
         let emitter = Emitter::caustic(&scene, asked, options.overlap, 0);
         let stop = StopRule::Stored(asked);
-        tracer.build_map(&emitter, PathClass::Caustic, stop, &hidden()).1
+        tracer
+            .build_map(&emitter, PathClass::Caustic, stop, &hidden())
+            .1
     };
     let cap = max_emissions(PathClass::Caustic, asked);
     let hidden_light = counts(&under);

@@ -812,3 +812,52 @@ fn light_paths_in_a_closed_bright_sphere_are_not_cut_short() {
     let mean = visits as f64 / n as f64;
     assert!((mean - 20.0).abs() < 0.7, "{mean} wall meetings a path");
 }
+
+/// A scene whose every light is at zero is warned about and its reference is black: it
+/// panicked picking a light among none. Its regions' noise is "n/a (no light)", `null` in the
+/// JSON (it printed `inf`).
+#[test]
+fn a_reference_of_unlit_scene_is_black_and_says_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = include_str!("../scenes/caustic-sphere.toml")
+        .replace("width = 640", "width = 32")
+        .replace("height = 480", "height = 24")
+        .replace(
+            "intensity = [60.0, 60.0, 60.0]",
+            "intensity = [0.0, 0.0, 0.0]",
+        );
+    let scene = dir.path().join("dark.toml");
+    std::fs::write(&scene, text).unwrap();
+    let (exr, stats) = (dir.path().join("ref.exr"), dir.path().join("s.json"));
+    let out = common::run_ok([
+        "reference".as_ref(),
+        scene.as_os_str(),
+        "-o".as_ref(),
+        exr.as_os_str(),
+        "--light-paths".as_ref(),
+        "131072".as_ref(),
+        "--caustic-paths".as_ref(),
+        "131072".as_ref(),
+        "--direct-grids".as_ref(),
+        "1,2".as_ref(),
+        "--stats-json".as_ref(),
+        stats.as_os_str(),
+    ]);
+    let film = photondiff::render::film::Film::read_exr(&exr).unwrap();
+    assert!(film.pixels.iter().all(|&p| p == DVec3::ZERO));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    let floor = &json["reference_regions"][0];
+    assert_eq!(floor["name"], "floor");
+    assert!(floor["pixels"].as_u64().unwrap() > 0);
+    assert!(floor["relative_noise"].is_null(), "{json}");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let line = format!(
+        "  floor    {:7} px  n/a (no light)",
+        floor["pixels"].as_u64().unwrap()
+    );
+    assert!(
+        stdout.lines().any(|l| l == line),
+        "{line:?} not in {stdout}"
+    );
+}

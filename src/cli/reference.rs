@@ -484,8 +484,10 @@ fn write(
         .map(|(name, pixels)| RegionNoise {
             name: name.to_string(),
             pixels: pixels.len() as u64,
-            // An empty region has no noise to tell (its mean is 0).
-            relative_noise: (!pixels.is_empty()).then(|| reference.relative_noise(pixels)),
+            // An empty region has no noise to tell, nor a black one (its mean is 0: `inf` was
+            // printed where the JSON said `null`).
+            relative_noise: Some(reference.relative_noise(pixels))
+                .filter(|n| !pixels.is_empty() && n.is_finite()),
         })
         .collect();
     match made.seconds {
@@ -496,9 +498,11 @@ fn write(
     }
     for r in &stats.reference_regions {
         // An empty region: said so, not "inf".
-        let noise = r
-            .relative_noise
-            .map_or_else(|| "n/a (no pixels)".to_string(), |n| format!("{n:.4}"));
+        let noise = match (r.relative_noise, r.pixels) {
+            (Some(n), _) => format!("{n:.4}"),
+            (None, 0) => "n/a (no pixels)".to_string(),
+            (None, _) => "n/a (no light)".to_string(),
+        };
         out!("  {:8} {:7} px  {noise}", r.name, r.pixels);
     }
     out!(

@@ -334,6 +334,10 @@ impl Emitter {
     /// lights).
     #[inline]
     pub fn emit_from_light(&self, index: u64, rng: &mut Rng) -> Option<(Emission, usize)> {
+        // Every light at zero leaves no source (the reference of such a scene panicked here).
+        if self.sources.is_empty() {
+            return None;
+        }
         let (k, light) = self.pick_light(rng);
         Some((self.emit_picked(k, index, rng, |l| l.complete())?, light))
     }
