@@ -23,7 +23,8 @@ pub struct BvhArgs {
     #[arg(long, overrides_with = "no_bvh_compact")]
     bvh_compact: bool,
     /// Embree's ordinary BVH even for scenes of 4,000,000 unique triangles and more: faster
-    /// tracing for about twice the memory (see --bvh-compact).
+    /// tracing for about twice the memory (see --bvh-compact). Of the two, the last given wins
+    /// (a wrapper script's default can be overridden).
     #[arg(long, overrides_with = "bvh_compact")]
     no_bvh_compact: bool,
     /// Embree's robust traversal (`RTC_SCENE_FLAG_ROBUST`): no hits missed on edges and

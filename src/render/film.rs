@@ -101,16 +101,24 @@ impl Film {
     }
 
     /// Writes an 8-bit sRGB PNG preview (radiance clamped to [0, 1], no tone mapping beyond
-    /// that), atomically.
+    /// that), atomically. From the values as the EXR holds them (single precision): from the
+    /// film's own, a pixel a hair's breadth from a level's edge (71.9999999 of 255) could round
+    /// the other way than the EXR's, and a merged image's preview (read back from its parts'
+    /// EXRs) differed from the one-process render's in 8 rows of 4096 x 3072.
     pub fn write_png(&self, path: &Path) -> Result<(), String> {
         let bytes: Vec<u8> = self
             .pixels
             .iter()
             .flat_map(|p| p.to_array())
-            .map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8)
+            .map(preview_byte)
             .collect();
         crate::util::atomic::write_png(path, &bytes, self.width, self.height)
     }
+}
+
+/// A linear value's 8-bit sRGB level in the PNG preview, from the value as the EXR holds it.
+pub fn preview_byte(c: f64) -> u8 {
+    (linear_to_srgb(f64::from(c as f32)) * 255.0 + 0.5) as u8
 }
 
 /// The sRGB transfer function, clamping to [0, 1] (NaN maps to 0).
@@ -125,6 +133,19 @@ pub fn linear_to_srgb(c: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
+    /// The preview's level is the EXR value's: 0.063902974 (single precision) is level
+    /// 72.0000007, and a film value a hair below it, which the EXR rounds to it, is 72 too (71
+    /// when the film's own value was rounded, so a merged preview differed from the whole's).
+    #[test]
+    fn the_preview_rounds_the_exr_value() {
+        let exr = 0.063902974f32;
+        let below = f64::from(exr) - 1.5e-9;
+        assert_eq!(below as f32, exr);
+        assert!(super::linear_to_srgb(below) * 255.0 + 0.5 < 72.0);
+        assert_eq!(super::preview_byte(below), 72);
+        assert_eq!(super::preview_byte(f64::from(exr)), 72);
+    }
+
     use super::*;
 
     #[test]
