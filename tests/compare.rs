@@ -486,7 +486,8 @@ fn report_refuses_non_finite_images_and_exposures() {
 }
 
 /// Two tiles of one size from other places of the image are not compared as the same pixels
-/// (the data window's offset was ignored).
+/// (the data window's offset was ignored), by `compare` nor by `report` (which compared them,
+/// relRMSE 4.32), nor a mask from another place of the image.
 #[test]
 fn tiles_from_other_places_are_not_compared() {
     use photondiff::render::film::Film;
@@ -504,6 +505,40 @@ fn tiles_from_other_places_are_not_compared() {
         )
     );
     assert!(run(&[&right, &right]).status.success());
+    let refused = format!(
+        "photondiff: error: {} starts at pixel (2, 0) of its image but {} at (0, 0): not the \
+         same pixels\n",
+        right.display(),
+        left.display()
+    );
+    let mask = [&left, &left, Path::new("--mask"), &right];
+    assert_eq!(stderr(&run(&mask)), refused);
+    let page = d.path().join("page");
+    let report = |args: &[&std::ffi::OsStr]| {
+        std::process::Command::new(bin())
+            .arg("report")
+            .args(args)
+            .arg("-o")
+            .arg(&page)
+            .output()
+            .unwrap()
+    };
+    let with_render = format!("a={}", right.display());
+    let out = report(&[
+        "--reference".as_ref(),
+        left.as_os_str(),
+        with_render.as_ref(),
+    ]);
+    assert_eq!(stderr(&out), refused);
+    let with_mask = format!("m={}", right.display());
+    let out = report(&[
+        "--reference".as_ref(),
+        left.as_os_str(),
+        format!("a={}", left.display()).as_ref(),
+        "--mask".as_ref(),
+        with_mask.as_ref(),
+    ]);
+    assert_eq!(stderr(&out), refused);
 }
 
 /// An error map is not written over a folder or over the images compared.

@@ -2,6 +2,7 @@
 //! reference, with error maps, crops of the regions of interest, tables and charts.
 
 use photondiff::embree::Device;
+use photondiff::reference::channels::ChannelImage;
 use photondiff::reference::compare::read_mask;
 use photondiff::reference::metrics::Regions;
 use photondiff::reference::report::{self, Chart, Region, Render, Report, Table};
@@ -159,6 +160,7 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
                 reference.height
             ));
         }
+        ChannelImage::check_same_origin(&path, &args.reference)?;
         renders.push(Render { label, film });
     }
     let mut regions = match &args.scene {
@@ -179,10 +181,9 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
                 "two regions are named '{name}': name the masks apart (NAME=M.exr)"
             ));
         }
-        regions.push(Region {
-            name,
-            mask: read_mask(&path, w, h)?,
-        });
+        ChannelImage::check_same_origin(&path, &args.reference)?;
+        let mask = read_mask(&path, w, h)?;
+        regions.push(Region { name, mask });
     }
     let tables = args
         .tables

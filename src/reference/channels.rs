@@ -64,6 +64,25 @@ impl ChannelImage {
         })
     }
 
+    /// Refuses `image` and `other` unless they start at the same pixel of their images: two
+    /// tiles of one size from other places are not the same pixels (`report` compared such a
+    /// pair, `compare` refused it; a mask was never checked).
+    pub fn check_same_origin(image: &Path, other: &Path) -> Result<(), String> {
+        let (a, b) = (Self::origin(image)?, Self::origin(other)?);
+        if a != b {
+            return Err(format!(
+                "{} starts at pixel ({}, {}) of its image but {} at ({}, {}): not the same pixels",
+                image.display(),
+                a.0,
+                a.1,
+                other.display(),
+                b.0,
+                b.1
+            ));
+        }
+        Ok(())
+    }
+
     /// Where the first layer's pixels lie in its image (the data window's corner): `(0, 0)`
     /// for a whole image, the tile's corner for a tile of one (`render --tile`).
     pub fn origin(path: &Path) -> Result<(i32, i32), String> {
