@@ -696,13 +696,8 @@ fn two_lights_alike_at_one_place_emit_what_one_of_twice_the_intensity_does() {
 /// the former cap of 64 surfaces allowed (1 - 0.95^64) / 0.05 = 19.25: 3.7% of the light gone.
 #[test]
 fn photon_paths_in_a_closed_bright_sphere_are_not_cut_short() {
-    let text =
-        "[camera]\neye = [0.0, 0.0, 0.5]\nlook_at = [0.0, 0.0, -1.0]\nup = [0.0, 1.0, 0.0]\n\
-        fov_y = 60.0\nwidth = 8\nheight = 6\n[materials.w]\ntype = \"diffuse\"\n\
-        albedo = [0.95, 0.95, 0.95]\n[[lights]]\ntype = \"point\"\nposition = [0.3, 0.2, -0.1]\n\
-        intensity = [10.0, 10.0, 10.0]\n[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\n\
-        radius = 1.0\nmaterial = \"w\"\nsegments = 64\n";
-    let scene = parse_scene(text, Path::new(".")).unwrap();
+    let text = common::closed_sphere("type = \"diffuse\"\nalbedo = [0.95, 0.95, 0.95]", 64);
+    let scene = parse_scene(&text, Path::new(".")).unwrap();
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let options = PhotonOptions::default();
@@ -798,13 +793,8 @@ fn a_far_reaching_floor_does_not_blur_the_caustic() {
 #[test]
 fn light_caught_in_a_closed_mirror_ends_after_64_reflections() {
     use photondiff::photons::light_path::MAX_SPECULAR_RUN;
-    let text =
-        "[camera]\neye = [0.0, 0.0, 0.5]\nlook_at = [0.0, 0.0, -1.0]\nup = [0.0, 1.0, 0.0]\n\
-        fov_y = 60.0\nwidth = 8\nheight = 6\n[materials.m]\ntype = \"mirror\"\n\
-        reflectance = [1.0, 1.0, 1.0]\n[[lights]]\ntype = \"point\"\nposition = [0.3, 0.2, -0.1]\n\
-        intensity = [10.0, 10.0, 10.0]\n[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\n\
-        radius = 1.0\nmaterial = \"m\"\nsegments = 32\n";
-    let scene = parse_scene(text, Path::new(".")).unwrap();
+    let text = common::closed_sphere("type = \"mirror\"\nreflectance = [1.0, 1.0, 1.0]", 32);
+    let scene = parse_scene(&text, Path::new(".")).unwrap();
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let options = PhotonOptions::default();

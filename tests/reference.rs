@@ -780,13 +780,8 @@ fn light_paths_in_a_closed_bright_sphere_are_not_cut_short() {
     use photondiff::photons::emission::Emitter;
     use photondiff::photons::light_path::LightPaths;
     use photondiff::util::rng::Rng;
-    let text =
-        "[camera]\neye = [0.0, 0.0, 0.5]\nlook_at = [0.0, 0.0, -1.0]\nup = [0.0, 1.0, 0.0]\n\
-        fov_y = 60.0\nwidth = 8\nheight = 6\n[materials.w]\ntype = \"diffuse\"\n\
-        albedo = [0.95, 0.95, 0.95]\n[[lights]]\ntype = \"point\"\nposition = [0.3, 0.2, -0.1]\n\
-        intensity = [10.0, 10.0, 10.0]\n[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\n\
-        radius = 1.0\nmaterial = \"w\"\nsegments = 64\n";
-    let scene = photondiff::scene::file::parse_scene(text, Path::new(".")).unwrap();
+    let text = common::closed_sphere("type = \"diffuse\"\nalbedo = [0.95, 0.95, 0.95]", 64);
+    let scene = photondiff::scene::file::parse_scene(&text, Path::new(".")).unwrap();
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let paths = LightPaths {

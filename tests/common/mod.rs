@@ -165,3 +165,16 @@ pub fn unavailable(why: &str) {
     }
     panic!("{why}; set {SKIP_COMPONENTS}=1 to skip this test where it cannot be installed");
 }
+
+/// A closed sphere of radius 1 at the origin, of material `material` (its TOML fields, e.g.
+/// `type = "diffuse"\nalbedo = [0.95, 0.95, 0.95]`), with a point light of 10 W/sr and the
+/// camera inside: light that never leaves, for the paths' caps.
+pub fn closed_sphere(material: &str, segments: u32) -> String {
+    format!(
+        "[camera]\neye = [0.0, 0.0, 0.5]\nlook_at = [0.0, 0.0, -1.0]\nup = [0.0, 1.0, 0.0]\n\
+         fov_y = 60.0\nwidth = 8\nheight = 6\n[materials.w]\n{material}\n[[lights]]\n\
+         type = \"point\"\nposition = [0.3, 0.2, -0.1]\nintensity = [10.0, 10.0, 10.0]\n\
+         [[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.0, 0.0]\nradius = 1.0\n\
+         material = \"w\"\nsegments = {segments}\n"
+    )
+}
