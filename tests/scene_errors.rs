@@ -1490,3 +1490,48 @@ fn a_camera_inside_glass_is_warned_about_by_light_tracing() {
         }
     }
 }
+
+/// An image written to a device or pipe gets no preview beside it unless `--png` names one:
+/// `-o /dev/null` wrote its preview to a file `/dev/null.png`, and a pipe's landed beside the
+/// pipe. Here a named pipe, read by `cat` (started and waited for by this test).
+#[test]
+fn an_image_on_a_pipe_gets_no_preview_beside_it() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, common::SMALL_SCENE).unwrap();
+    let pipe = dir.path().join("pipe.exr");
+    assert!(Command::new("mkfifo")
+        .arg(&pipe)
+        .status()
+        .unwrap()
+        .success());
+    let copy = dir.path().join("copy.bin");
+    let mut reader = Command::new("sh")
+        .arg("-c")
+        .arg(format!("cat '{}' > '{}'", pipe.display(), copy.display()))
+        .spawn()
+        .unwrap();
+    let out = Command::new(exe)
+        .args(["render", "-q", "--estimator", "direct", "-o"])
+        .arg(&pipe)
+        .arg(&scene)
+        .output()
+        .unwrap();
+    assert!(reader.wait().unwrap().success());
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(
+        String::from_utf8_lossy(&out.stdout),
+        format!(
+            "wrote {} (no preview beside a device or pipe: --png for one)\n",
+            pipe.display()
+        )
+    );
+    assert!(!dir.path().join("pipe.png").exists());
+    // The image went through the pipe: an OpenEXR file's magic number.
+    assert_eq!(std::fs::read(&copy).unwrap()[..4], [0x76, 0x2f, 0x31, 0x01]);
+}

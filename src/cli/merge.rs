@@ -16,7 +16,8 @@ pub struct MergeArgs {
     /// whole in its attributes).
     #[arg(short = 'o', long = "output", value_name = "OUT.exr")]
     output: PathBuf,
-    /// sRGB preview of the whole. Default: the EXR path with a .png extension.
+    /// sRGB preview of the whole. Default: the EXR path with a .png extension (none where -o
+    /// is a device or pipe, such as /dev/null).
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
     /// Write the statistics of the whole (counts and times summed over the parts) as JSON.
@@ -26,17 +27,17 @@ pub struct MergeArgs {
 
 /// Runs `photondiff merge`; nothing is written unless every check passes.
 pub fn run(args: &MergeArgs) -> Result<(), String> {
-    let png = args
-        .png
-        .clone()
-        .unwrap_or_else(|| args.output.with_extension("png"));
-    super::check_image_names(&args.output, &png)?;
+    let png = super::preview_path(&args.output, args.png.as_deref());
+    if let Some(png) = &png {
+        super::check_image_names(&args.output, png)?;
+    }
     let png_flag = if args.png.is_some() {
         "--png"
     } else {
         "the PNG preview (-o with .png)"
     };
-    let mut outputs = vec![("-o", args.output.as_path()), (png_flag, png.as_path())];
+    let mut outputs = vec![("-o", args.output.as_path())];
+    outputs.extend(png.as_deref().map(|p| (png_flag, p)));
     outputs.extend(args.stats_json.as_deref().map(|p| ("--stats-json", p)));
     let inputs: Vec<_> = args
         .parts
@@ -77,20 +78,27 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
         );
     }
     create_parent(&args.output)?;
-    create_parent(&png)?;
+    if let Some(png) = &png {
+        create_parent(png)?;
+    }
     merged.film.write_exr(&args.output, &merged.metadata)?;
-    merged.film.write_png(&png)?;
+    if let Some(png) = &png {
+        merged.film.write_png(png)?;
+    }
     if let Some(path) = &args.stats_json {
         create_parent(path)?;
         let json = serde_json::to_string_pretty(&merged.stats).map_err(|e| e.to_string())?;
         photondiff::util::atomic::write_bytes(path, json.as_bytes())?;
     }
+    let preview = png.map_or_else(
+        || " (no preview beside a device or pipe: --png for one)".to_string(),
+        |png| format!(" and {}", png.display()),
+    );
     out!(
-        "merged {} part{} into {} and {}",
+        "merged {} part{} into {}{preview}",
         parts.len(),
         if parts.len() == 1 { "" } else { "s" },
         args.output.display(),
-        png.display()
     );
     Ok(())
 }

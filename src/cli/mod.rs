@@ -371,6 +371,19 @@ fn resolved(path: &Path) -> PathBuf {
 /// Refuses an image name whose extension says the other format: the EXR (`-o`) named `.png`
 /// or the PNG preview (`--png`) named `.exr` (the file would hold the other format's bytes
 /// under a name that promises this one).
+/// The PNG preview of an image written to `exr`: `--png` where given, else `exr` with `.png`,
+/// but none where `exr` is a device or pipe (`-o /dev/null` wrote its preview to a file
+/// `/dev/null.png`, a pipe's beside the pipe).
+pub fn preview_path(exr: &Path, png: Option<&Path>) -> Option<PathBuf> {
+    match png {
+        Some(png) => Some(png.to_path_buf()),
+        None => {
+            let special = std::fs::metadata(exr).is_ok_and(|m| !m.is_file() && !m.is_dir());
+            (!special).then(|| exr.with_extension("png"))
+        }
+    }
+}
+
 pub fn check_image_names(exr: &Path, png: &Path) -> Result<(), String> {
     let ext = |p: &Path| {
         p.extension()

@@ -35,7 +35,8 @@ pub struct RenderArgs {
     /// Default: out/<scene name>.exr.
     #[arg(short = 'o', long = "output", value_name = "OUT.exr")]
     output: Option<PathBuf>,
-    /// Output PNG preview (sRGB, clamped). Default: the EXR path with a .png extension.
+    /// Output PNG preview (sRGB, clamped). Default: the EXR path with a .png extension (none
+    /// where -o is a device or pipe, such as /dev/null).
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
     /// Camera rays per pixel along each axis: N x N on a regular grid, each ray's differential
@@ -179,8 +180,8 @@ pub struct RenderArgs {
 }
 
 /// The EXR and PNG paths of a render: `-o` (default `out/SCENE.exr`) and `--png` (default
-/// the EXR's path with `.png`).
-fn output_paths(args: &RenderArgs) -> (PathBuf, PathBuf) {
+/// the EXR's path with `.png`; none beside a device or pipe: [`super::preview_path`]).
+fn output_paths(args: &RenderArgs) -> (PathBuf, Option<PathBuf>) {
     let stem = args
         .scene
         .file_stem()
@@ -190,10 +191,7 @@ fn output_paths(args: &RenderArgs) -> (PathBuf, PathBuf) {
         .output
         .clone()
         .unwrap_or_else(|| Path::new("out").join(format!("{stem}.exr")));
-    let png = args
-        .png
-        .clone()
-        .unwrap_or_else(|| exr.with_extension("png"));
+    let png = super::preview_path(&exr, args.png.as_deref());
     (exr, png)
 }
 
@@ -230,13 +228,16 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         );
     }
     let (exr, png) = output_paths(args);
-    super::check_image_names(&exr, &png)?;
+    if let Some(png) = &png {
+        super::check_image_names(&exr, png)?;
+    }
     let png_flag = if args.png.is_some() {
         "--png"
     } else {
         "the PNG preview (-o with .png)"
     };
-    let mut outputs = vec![("-o", exr.as_path()), (png_flag, png.as_path())];
+    let mut outputs = vec![("-o", exr.as_path())];
+    outputs.extend(png.as_deref().map(|p| (png_flag, p)));
     outputs.extend(args.stats_json.as_deref().map(|p| ("--stats-json", p)));
     outputs.extend(args.trace.as_deref().map(|p| ("--trace", p)));
     let mut inputs = vec![("scene", args.scene.as_path())];
@@ -397,26 +398,36 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     let window = options.window.unwrap_or(Window::full(width, height));
     create_parent(&exr)?;
-    create_parent(&png)?;
+    if let Some(png) = &png {
+        create_parent(png)?;
+    }
     stats.time("write images", || -> Result<(), String> {
         let origin = (window.x0, window.y0);
         match &range_sum {
             Some(sum) => write_pass_part(&exr, sum, &metadata, origin, (width, height))?,
             None => film.write_exr_window(&exr, &metadata, origin, (width, height))?,
         }
-        film.write_png(&png)
+        png.as_deref().map_or(Ok(()), |png| film.write_png(png))
     })?;
     stats.memory.record_peak();
+    let mut written = vec![exr.as_path()];
+    written.extend(png.as_deref());
     super::write_trace_and_stats(
         args.trace.as_deref(),
         args.stats_json.as_deref(),
         &stats,
-        &[&exr, &png],
+        &written,
     )?;
     if !args.quiet {
         photondiff::stderr_text!("{}", stats.summary());
     }
-    out!("wrote {} and {}", exr.display(), png.display());
+    match &png {
+        Some(png) => out!("wrote {} and {}", exr.display(), png.display()),
+        None => out!(
+            "wrote {} (no preview beside a device or pipe: --png for one)",
+            exr.display()
+        ),
+    }
     // Whatever --quiet says: the image is not what the options asked for.
     if let Some(p) = stats.progressive.as_ref() {
         if p.stop == StopReason::Interrupted {
