@@ -420,8 +420,8 @@ impl Scene {
 }
 
 impl Scene {
-    /// The length the photons' footprint limits are fractions of
-    /// ([`crate::photons::options::PhotonOptions::limits`]): the scene's extent, but at most
+    /// The length the caustic map's footprint limits are fractions of
+    /// ([`crate::photons::options::PhotonOptions::class_limits`]): the scene's extent, but at most
     /// twice the diagonal of the box around the camera's eye, the lights and the mirror and
     /// glass objects. A ground plane reaching far away does not widen the caustics: a floor
     /// 10^5 across under the canonical sphere made the smallest footprint 1.4 units, wider
