@@ -36,6 +36,17 @@ fn scene(file: &str) -> Scene {
 /// Renders `scene` with every method from photon maps of the given counts, checks the promises,
 /// and returns the caustic map's guard count.
 fn check(name: &str, scene: &Scene, global: usize, caustic: usize) -> u64 {
+    check_with(name, scene, global, caustic, ENERGY_TOLERANCE)
+}
+
+/// [`check`], with the coplanar estimate's energy held to `coplanar_tolerance`.
+fn check_with(
+    name: &str,
+    scene: &Scene,
+    global: usize,
+    caustic: usize,
+    coplanar_tolerance: f64,
+) -> u64 {
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let options = PhotonOptions {
@@ -85,8 +96,13 @@ fn check(name: &str, scene: &Scene, global: usize, caustic: usize) -> u64 {
         );
         let energy = energy_error(&film, &reference.film, lit);
         eprintln!("{name}, {}: energy {energy:+.4}", method.label());
+        let tolerance = if method.label().starts_with("Coplanar") {
+            coplanar_tolerance
+        } else {
+            ENERGY_TOLERANCE
+        };
         assert!(
-            energy.abs() < ENERGY_TOLERANCE,
+            energy.abs() < tolerance,
             "{name}, {}: energy {energy:+.3} against the reference",
             method.label()
         );
@@ -157,6 +173,21 @@ fn glass_through_glass() {
         &scene("stress/glass-through-glass.toml"),
         100_000,
         20_000,
+    );
+}
+
+#[test]
+fn quad_light_caustic() {
+    // Most of this image's light is the caustic, which the coplanar estimate counts about 1.7
+    // times at 80 x 60 (its kernel read at the centroid of a pixel's intersection with a photon
+    // far smaller than the pixel is twice the kernel's mean; README, "Stability where methods
+    // fail"): +0.26 of the image's energy, where the canonical scene's caustic is a small share.
+    check_with(
+        "quad light caustic",
+        &scene("stress/quad-light-caustic.toml"),
+        100_000,
+        20_000,
+        0.35,
     );
 }
 

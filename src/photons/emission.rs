@@ -5,7 +5,12 @@
 //! emitting `N` photons into solid angle `Omega` gives each a beam whose elliptical cross-section
 //! covers `overlap * Omega / N` steradians: `|dD/du| = |dD/dv| = sqrt(overlap Omega / (pi N))`,
 //! orthogonal to the direction, `dP = 0`. A quad light of area `A` gives each photon a disc of
-//! area `overlap * A / N` along the light's edges, `dD = 0`. `overlap` is the number of
+//! area `overlap * A / N` along the light's edges and a round beam over the directions it
+//! samples (the hemisphere, `2 pi`, as light leaving a diffuse surface; a caustic photon its
+//! target's cone seen from the light's centre): a photon stands for a share of the light's
+//! directions as well as of its area, and a parallel beam (`dD = 0`) is focused by a glass
+//! sphere to a footprint a hundredth of a point light's, fireflies in the photon-differential
+//! estimates. `overlap` is the number of
 //! footprints expected to cover a point (1 tiles the surface exactly; more trades blur for
 //! noise, as `k` does in the regular estimate).
 //!
@@ -37,8 +42,8 @@ pub struct Emission {
     pub power: DVec3,
 }
 
-/// An emission as the photon tracer starts it: a point or spot light's round beam (direction
-/// differentials `spread` times [`tangent_frame`] of the direction) is left for
+/// An emission as the photon tracer starts it: its round beam (direction differentials
+/// `spread` times [`tangent_frame`] of the direction) is left for
 /// [`Launch::complete`], or for the path's first hit, to spell out. Most global photons leave
 /// the scene without meeting anything and never need it, and the tangent frame (a division and
 /// a square root on the emission's dependency chain) was about 5% of the global map's tracing
@@ -89,9 +94,11 @@ struct Source {
     target: Option<Target>,
     /// Probability of choosing this source.
     probability: f64,
-    /// Radius of the emission differentials: angular for point and spot lights, positional for
-    /// quad lights.
+    /// Angular radius of the round beam each emission is given (direction differentials).
     spread: f64,
+    /// For quad lights, the radius of the emission differentials along the light's edges (each
+    /// emission's share of the light's area); 0 for point and spot lights.
+    position_spread: f64,
     /// For point and spot lights, the cone directions are drawn from (the light's, or the
     /// target's as seen from the light), kept with its tangent frame; `None` for quad lights,
     /// whose cones start at each emission's point.
@@ -124,21 +131,20 @@ impl Emitter {
             .map(|(light_index, (light, &w))| {
                 let p = w / total;
                 let n = (photons as f64 * p).max(1.0);
-                let spread = match *light {
-                    Light::Point { .. } => (overlap * 4.0 * PI / (PI * n)).sqrt(),
-                    Light::Spot { cos_cone, .. } => {
-                        (overlap * cone_solid_angle(cos_cone) / (PI * n)).sqrt()
-                    }
-                    Light::Quad { edge_u, edge_v, .. } => {
-                        (overlap * edge_u.cross(edge_v).length() / (PI * n)).sqrt()
-                    }
+                // A quad light's emissions leave its surface over the hemisphere, as light
+                // leaving a diffuse surface does.
+                let solid_angle = match *light {
+                    Light::Point { .. } => 4.0 * PI,
+                    Light::Spot { cos_cone, .. } => cone_solid_angle(cos_cone),
+                    Light::Quad { .. } => 2.0 * PI,
                 };
                 Source {
                     light: *light,
                     light_index,
                     target: None,
                     probability: p,
-                    spread,
+                    spread: (overlap * solid_angle / (PI * n)).sqrt(),
+                    position_spread: position_spread(light, overlap, n),
                     cone: light_cone(light, None),
                 }
             })
@@ -198,6 +204,7 @@ impl Emitter {
                     target: Some(t),
                     probability: s.probability * aim * w / total,
                     spread: 0.0,
+                    position_spread: 0.0,
                     cone: light_cone(&s.light, Some(&t)),
                 });
             }
@@ -250,18 +257,14 @@ impl Emitter {
             .map(|(light, light_index, target, omega, weight)| {
                 let p = weight / total;
                 let n = (photons as f64 * p).max(1.0);
-                let spread = match light {
-                    Light::Quad { edge_u, edge_v, .. } => {
-                        (overlap * edge_u.cross(edge_v).length() / (PI * n)).sqrt()
-                    }
-                    _ => (overlap * omega / (PI * n)).sqrt(),
-                };
                 Source {
                     light,
                     light_index,
                     target: Some(target),
                     probability: p,
-                    spread,
+                    // A quad light's share of the target's cone is seen from its centre.
+                    spread: (overlap * omega / (PI * n)).sqrt(),
+                    position_spread: position_spread(&light, overlap, n),
                     cone: aimed_cone(&light, &target),
                 }
             })
@@ -496,10 +499,13 @@ impl Emitter {
         };
         let eu = edge_u.normalize();
         let mut ray = RayDifferential::new(y, d);
-        ray.dp = [eu * source.spread, n.cross(eu) * source.spread];
+        ray.dp = [
+            eu * source.position_spread,
+            n.cross(eu) * source.position_spread,
+        ];
         Some(Launch {
             emission: Emission { ray, power },
-            spread: None,
+            spread: Some(source.spread),
         })
     }
 
@@ -629,6 +635,17 @@ fn aimed_cone(light: &Light, target: &Target) -> Option<Cone> {
     match (*light, light_cone(light, None)) {
         (Light::Spot { .. }, Some(own)) if own.solid_angle() < towards.solid_angle() => Some(own),
         _ => Some(towards),
+    }
+}
+
+/// The radius of the emission differentials along a quad light's edges for `n` emissions:
+/// each one's share `overlap * A / n` of the light's area `A`; 0 for point and spot lights.
+fn position_spread(light: &Light, overlap: f64, n: f64) -> f64 {
+    match *light {
+        Light::Quad { edge_u, edge_v, .. } => {
+            (overlap * edge_u.cross(edge_v).length() / (PI * n)).sqrt()
+        }
+        _ => 0.0,
     }
 }
 
