@@ -17,6 +17,7 @@ use std::path::{Path, PathBuf};
 
 mod checks;
 mod metadata;
+mod reads;
 
 /// The longest `--time-budget` taken, in seconds: 365 days.
 const MAX_TIME_BUDGET: f64 = 31_536_000.0;

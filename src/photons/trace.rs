@@ -104,10 +104,14 @@ pub const EMPTY_CAUSTIC_SHARE: u64 = 100;
 pub fn emission_stopped(class: PathClass, asked: usize, counts: &TraceCounts) -> bool {
     let cap = max_emissions(class, asked);
     counts.stored < asked as u64
-        && (counts.emitted >= cap
-            || (class == PathClass::Caustic
-                && counts.stored == 0
-                && counts.emitted >= cap / EMPTY_CAUSTIC_SHARE))
+        && (counts.emitted >= cap || empty_so_far(class, cap, counts.stored, counts.emitted))
+}
+
+/// Whether a map of `class` whose emission is capped at `cap` stops with `stored` photons
+/// after `emitted` emissions: a caustic map with none after [`EMPTY_CAUSTIC_SHARE`] of its cap.
+/// The tracer's loop and [`emission_stopped`] (what the statistics say) both ask this.
+fn empty_so_far(class: PathClass, cap: u64, stored: u64, emitted: u64) -> bool {
+    class == PathClass::Caustic && stored == 0 && emitted >= cap / EMPTY_CAUSTIC_SHARE
 }
 
 /// The cap of [`StopRule::Stored`] for the global map: emissions per photon asked for. Global
@@ -337,11 +341,8 @@ impl<'a> PhotonTracer<'a> {
                 if complete {
                     break;
                 }
-                let empty = StopRule::Stored(target) == stop
-                    && class == PathClass::Caustic
-                    && stored == 0
-                    && counts.emitted >= max_emissions / EMPTY_CAUSTIC_SHARE;
-                if empty {
+                let empty = empty_so_far(class, max_emissions, stored as u64, counts.emitted);
+                if StopRule::Stored(target) == stop && empty {
                     break;
                 }
             }

@@ -77,8 +77,7 @@ pub(super) fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
     let passes = passes.or(if open { None } else { Some(default) });
     // The footprints shrink from one pass to the next: a one-pass render reads neither (the
     // same image to the bit with --alpha 0.1 and 0.9).
-    let maps = !matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace);
-    if passes == Some(1) && maps {
+    if passes == Some(1) && super::reads::has_maps(kind) {
         for (id, option) in [("alpha", "--alpha"), ("global_alpha", "--global-alpha")] {
             if args.given.iter().any(|g| g == id) {
                 let why = match args.passes {
@@ -140,7 +139,7 @@ pub(super) fn options(
     kind: EstimatorKind,
     pass_range: Option<&Range<u64>>,
 ) -> Result<(), String> {
-    let no_maps = matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace);
+    let no_maps = !super::reads::has_maps(kind);
     if args.gather_rays > 0 {
         if no_maps {
             return Err(format!(
@@ -165,93 +164,15 @@ pub(super) fn options(
             ));
         }
     }
-    for (given, option, owner) in [
-        (args.k.is_some(), "--k", EstimatorKind::Jensen),
-        (
-            args.ms_grid.is_some(),
-            "--ms-grid",
-            EstimatorKind::Multisampled,
-        ),
-        (
-            args.coplanar_vertices.is_some(),
-            "--coplanar-vertices",
-            EstimatorKind::Coplanar,
-        ),
-    ] {
-        if given && kind != owner {
-            return Err(format!(
-                "{option} applies to --estimator {} only",
-                estimator_name(owner)
-            ));
-        }
-    }
-    // Options with defaults, refused where given and not read (`--photons 1000000` with
-    // `--estimator direct` rendered the direct light alone, without a word).
-    let given = |id: &str| args.given.iter().any(|g| g == id);
-    let photon_options = [
-        ("global_photons", "--photons"),
-        ("caustic_photons", "--caustic-photons"),
-        ("overlap", "--overlap"),
-        ("global_aim", "--global-aim"),
-        ("probe_walls", "--probe-walls"),
-        ("alpha", "--alpha"),
-        ("global_alpha", "--global-alpha"),
-    ];
-    if no_maps {
-        if let Some((_, option)) = photon_options.iter().find(|(id, _)| given(id)) {
-            return Err(format!(
-                "{option} does not apply to --estimator {} (it uses no photon maps)",
-                estimator_name(kind)
-            ));
-        }
-    }
-    // Jensen's k nearest photons have no footprints: without final gathering (whose radiance
-    // map sizes its points by them) the footprints' overlap and the global map's shrinking
-    // are read by nothing (the same image to the bit with and without them).
-    if kind == EstimatorKind::Jensen && args.gather_rays == 0 {
-        for (id, option) in [("overlap", "--overlap"), ("global_alpha", "--global-alpha")] {
-            if given(id) {
-                return Err(format!(
-                    "{option} does not apply to --estimator jensen without --gather-rays (its k \
-                     nearest photons have no footprints)"
-                ));
-            }
-        }
-    }
-    if kind == EstimatorKind::Lighttrace {
-        for (id, option) in [
-            ("view_grid", "--view-grid"),
-            ("edge_grid", "--edge-grid"),
-            ("max_depth", "--max-depth"),
-            ("area_samples", "--area-samples"),
-            ("footprint_shadow_rays", "--footprint-shadow-rays"),
-        ] {
-            if given(id) {
-                return Err(format!(
-                    "{option} does not apply to --estimator lighttrace (its paths reach the \
-                     camera from the lights: it traces no camera rays)"
-                ));
-            }
-        }
-    }
-    if given("light_paths") && kind != EstimatorKind::Lighttrace {
-        return Err("--light-paths applies to --estimator lighttrace only".into());
-    }
-    if args.photon_maps.is_some() && no_maps {
-        return Err(format!(
-            "--photon-maps does not apply to --estimator {} (it uses no photon maps)",
-            estimator_name(kind)
-        ));
-    }
     if !(0.0..=MAX_NEAR_REACH).contains(&args.gather_near) {
         return Err(format!(
             "--gather-near must be at least 0 and at most {MAX_NEAR_REACH}, got {}",
             crate::cli::shown(args.gather_near)
         ));
     }
-    // Read by final gathering alone (it rendered the same image, bit for bit, without it).
-    if given("gather_near") && args.gather_rays == 0 {
-        return Err("--gather-near applies with --gather-rays only (final gathering)".into());
-    }
+    // Options refused where given and not read (`--photons 1000000` with `--estimator direct`
+    // rendered the direct light alone, without a word): one table says which render reads
+    // which, and the image's attributes name the same.
+    super::reads::refuse_unread(&args.given, kind, args.gather_rays)?;
     Ok(())
 }

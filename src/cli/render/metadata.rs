@@ -1,6 +1,7 @@
 //! The attributes a render writes into its EXR: what was rendered and how, so that an image
 //! says where it came from (`photondiff merge` and `report` read them back).
 
+use super::reads::reads_attribute;
 use super::RenderArgs;
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::options::PhotonOptions;
@@ -51,7 +52,7 @@ pub(super) fn exr_metadata(
         ("stats", serde_json::to_string(stats).unwrap_or_default()),
     ]
     .into_iter()
-    .filter(|(name, _)| reads(kind, args.gather_rays, name))
+    .filter(|(name, _)| reads_attribute(kind, args.gather_rays, name))
     .map(|(name, value)| (format!("photondiff/{name}"), value))
     .collect();
     if kind == EstimatorKind::Lighttrace {
@@ -61,11 +62,9 @@ pub(super) fn exr_metadata(
         ));
     }
     if let Some(p) = &stats.progressive {
-        metadata.extend(
-            pass_metadata(p)
-                .into_iter()
-                .filter(|(name, _)| reads(kind, args.gather_rays, &name["photondiff/".len()..])),
-        );
+        metadata.extend(pass_metadata(p).into_iter().filter(|(name, _)| {
+            reads_attribute(kind, args.gather_rays, &name["photondiff/".len()..])
+        }));
     }
     metadata
 }
@@ -87,31 +86,13 @@ fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
     .collect()
 }
 
-/// Whether a render with estimator `kind` (and `gather_rays` final-gather rays) reads the
-/// setting `name`.
-fn reads(kind: EstimatorKind, gather_rays: u32, name: &str) -> bool {
-    use EstimatorKind::*;
-    let maps = !matches!(kind, Direct | Lighttrace);
-    match name {
-        "photons" | "caustic_photons" | "global_aim" | "probe_walls" | "alpha" => maps,
-        // Jensen's k nearest photons have no footprints, unless final gathering sizes its
-        // radiance points by them.
-        "overlap" | "global_alpha" => maps && (kind != Jensen || gather_rays > 0),
-        "gather_rays" => maps,
-        "gather_near" => maps && gather_rays > 0,
-        "k" => kind == Jensen,
-        "ms_grid" => kind == Multisampled,
-        "coplanar_vertices" => kind == Coplanar,
-        "view_grid" | "edge_grid" | "max_depth" | "area_samples" | "footprint_shadow_rays" => {
-            kind != Lighttrace
-        }
-        _ => true,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn reads(kind: EstimatorKind, gather_rays: u32, attribute: &str) -> bool {
+        reads_attribute(kind, gather_rays, attribute)
+    }
 
     /// Each estimator's attributes name the options it reads: `direct` no photon counts,
     /// `lighttrace` no camera grids, `pd` no `k`.
