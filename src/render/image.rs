@@ -157,12 +157,17 @@ pub struct RenderedImage {
     /// Per pixel (row-major): whether the first estimator returned non-zero radiance for any of
     /// the pixel's camera rays. All false without estimators.
     pub reach: Vec<bool>,
+    /// Per pixel: whether any of the pixel's camera rays saw a light's surface (directly or
+    /// through mirrors and glass). Its outline swings between passes with the camera's jitter
+    /// (a light many times brighter than what it lights), which the noise estimate leaves out.
+    pub lights: Vec<bool>,
 }
 
 /// What one tile produced.
 struct TileResult {
     pixels: Vec<DVec3>,
     reach: Vec<bool>,
+    lights: Vec<bool>,
     rays: RayCounts,
     cut_at_max_depth: u64,
     edge_pixels: u64,
@@ -176,6 +181,7 @@ impl TileResult {
         TileResult {
             pixels: vec![DVec3::ZERO; n],
             reach: vec![false; n],
+            lights: vec![false; n],
             rays: RayCounts::default(),
             cut_at_max_depth: 0,
             edge_pixels: 0,
@@ -270,6 +276,7 @@ pub fn render_image(
     progress.finish_and_clear();
     let mut film = Film::new(window.width(), window.height());
     let mut reach = vec![false; film.pixels.len()];
+    let mut lights = vec![false; film.pixels.len()];
     for (tile, result) in tiles.iter().zip(&results) {
         let tw = (tile.x1 - tile.x0) as usize;
         for (k, p) in result.pixels.iter().enumerate() {
@@ -277,6 +284,7 @@ pub fn render_image(
             let i = ((y - window.y0) * window.width() + (x - window.x0)) as usize;
             film.pixels[i] = *p;
             reach[i] = result.reach[k];
+            lights[i] = result.lights[k];
         }
         stats.rays.add(&result.rays);
         stats.paths_cut_at_max_depth += result.cut_at_max_depth;
@@ -284,7 +292,11 @@ pub fn render_image(
         stats.gathers.add(&result.gathers);
     }
     stats.invalid_rays += embree.invalid_rays() - invalid_before;
-    Ok(RenderedImage { film, reach })
+    Ok(RenderedImage {
+        film,
+        reach,
+        lights,
+    })
 }
 
 /// Renders tiles; shared read-only by all workers.
@@ -371,6 +383,7 @@ impl<'a> TileRenderer<'a> {
         let tw = (tile.x1 - tile.x0) as usize;
         let mut pixels = vec![DVec3::ZERO; tw * (tile.y1 - tile.y0) as usize];
         let mut reach = vec![false; pixels.len()];
+        let mut lights = vec![false; pixels.len()];
         let mut tally = PathTally::default();
         let edge = if self.options.edge_grid > view_grid {
             let rect = (tile.x0, tile.y0, tile.x1, tile.y1);
@@ -429,6 +442,10 @@ impl<'a> TileRenderer<'a> {
                     &mut radiance[lane],
                     &mut tally,
                 );
+            }
+            // Before direct light is added, a lane's radiance is the light it saw.
+            for (lane, &(pixel, ..)) in chunk.iter().enumerate() {
+                lights[pixel] |= radiance[lane] != DVec3::ZERO;
             }
             tally.rays.shadow += self.direct.add(&vertices, &mut rng, &mut radiance);
             if !self.estimators.is_empty() && !vertices.is_empty() {
@@ -509,6 +526,7 @@ impl<'a> TileRenderer<'a> {
         TileResult {
             pixels,
             reach,
+            lights,
             rays: tally.rays,
             cut_at_max_depth: tally.cut_at_max_depth,
             edge_pixels: edge.iter().filter(|&&e| e).count() as u64,

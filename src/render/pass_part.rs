@@ -50,7 +50,7 @@ pub fn write_pass_part(
         }
     }
     u32s("pd.flags".into(), &|i| {
-        sum.exact[i] as u32 | (sum.reach[i] as u32) << 1
+        sum.exact[i] as u32 | (sum.reach[i] as u32) << 1 | (sum.lights[i] as u32) << 2
     });
     let sums = checksum::words(channels.iter().map(|c| match &c.sample_data {
         FlatSamples::U32(v) => v.as_slice(),
@@ -155,6 +155,7 @@ pub fn read_pass_sum(path: &Path, passes: u64) -> std::result::Result<PassSum, S
     for (i, &f) in flags.iter().enumerate().take(n) {
         sum.exact[i] = f & 1 != 0;
         sum.reach[i] = f & 2 != 0;
+        sum.lights[i] = f & 4 != 0;
     }
     sum.passes = passes;
     Ok(sum)
@@ -180,7 +181,12 @@ mod tests {
                 );
             }
             let reach = (0..6).map(|i| i % 2 == k % 2).collect();
-            sum.add(&RenderedImage { film, reach });
+            let lights = (0..6).map(|i| i % 3 == k).collect();
+            sum.add(&RenderedImage {
+                film,
+                reach,
+                lights,
+            });
         }
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("p.exr");

@@ -44,6 +44,8 @@ pub struct PassSum {
     pub(crate) exact: Vec<bool>,
     /// Per pixel, whether the caustic estimate was non-zero in any pass.
     pub reach: Vec<bool>,
+    /// Per pixel, whether a camera ray saw a light in any pass.
+    pub lights: Vec<bool>,
 }
 
 impl PassSum {
@@ -59,6 +61,7 @@ impl PassSum {
             squares: vec![DVec3::ZERO; n],
             exact: vec![true; n],
             reach: vec![false; n],
+            lights: vec![false; n],
         }
     }
 
@@ -83,6 +86,7 @@ impl PassSum {
             self.float[i] += p;
             self.squares[i] += p * p;
             self.reach[i] |= pass.reach[i];
+            self.lights[i] |= pass.lights[i];
         }
         self.passes += 1;
     }
@@ -103,6 +107,7 @@ impl PassSum {
             self.squares[i] += other.squares[i];
             self.exact[i] &= other.exact[i];
             self.reach[i] |= other.reach[i];
+            self.lights[i] |= other.lights[i];
         }
         self.passes += other.passes;
     }
@@ -139,6 +144,7 @@ mod tests {
         }
         RenderedImage {
             reach: values.iter().map(|&v| v > 1.0).collect(),
+            lights: values.iter().map(|&v| v > 2.0).collect(),
             film,
         }
     }
