@@ -615,6 +615,24 @@ fn the_command_line_reports_passes_and_noise_and_stops_by_its_rules() {
             && stderr.contains("stopped by the target noise)"),
         "{stderr}"
     );
+    // `direct` has no footprints to shrink: its summary names no schedule.
+    let out = photondiff(&[
+        "render",
+        "--estimator",
+        "direct",
+        "--passes",
+        "2",
+        "-o",
+        exr.to_str().unwrap(),
+        scene,
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("  progressive: 2 passes (")
+            && !stderr.contains("alpha")
+            && !stderr.contains("area factor"),
+        "{stderr}"
+    );
     // A budget too short for a second pass stops after the first.
     let p = run(&["--time-budget", "0.000001"])["progressive"].clone();
     assert_eq!(

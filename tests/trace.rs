@@ -412,6 +412,38 @@ fn a_failed_run_writes_its_trace_and_a_finished_image_is_said_to_be_kept() {
         "-o".as_ref(),
         maps.as_os_str(),
     ]);
+    // Read into a 2-pass render: pass 0 stored no photons of its own, so the track has a
+    // point for pass 1 alone (pass 0's was empty).
+    let trace = dir.path().join("loaded.json");
+    common::run_ok([
+        "render".as_ref(),
+        scene.as_os_str(),
+        "-q".as_ref(),
+        "--photon-maps".as_ref(),
+        maps.as_os_str(),
+        "--caustic-photons".as_ref(),
+        "1000".as_ref(),
+        "--photons".as_ref(),
+        "1000".as_ref(),
+        "--passes".as_ref(),
+        "2".as_ref(),
+        "-o".as_ref(),
+        dir.path().join("loaded.exr").as_os_str(),
+        "--trace".as_ref(),
+        trace.as_os_str(),
+    ]);
+    let json: Value = serde_json::from_str(&std::fs::read_to_string(&trace).unwrap()).unwrap();
+    let stored: Vec<&Value> = json["traceEvents"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|e| e["ph"] == "C" && e["name"] == "photons stored")
+        .collect();
+    assert_eq!(stored.len(), 1, "{stored:?}");
+    assert!(
+        stored[0]["args"]["Caustic"].as_u64() > Some(0),
+        "{stored:?}"
+    );
     let repainted = text.replace("albedo = [0.75, 0.75, 0.75]", "albedo = [0.7, 0.7, 0.7]");
     assert_ne!(repainted, text);
     std::fs::write(&scene, &repainted).unwrap();

@@ -500,14 +500,18 @@ fn trace_pass(pass: &Stats) {
         let r = &pass.rays;
         serde_json::json!({"camera": r.camera, "specular": r.specular, "shadow": r.shadow})
     });
-    trace::counter("photons stored", || {
-        serde_json::Value::Object(
-            pass.photon_maps
-                .iter()
-                .map(|m| (format!("{:?}", m.class), m.stored.into()))
-                .collect(),
-        )
-    });
+    // A pass that traced no maps (`direct`; pass 0 of `--photon-maps`, whose maps were read)
+    // has no point on the track (it had an empty one).
+    if !pass.photon_maps.is_empty() {
+        trace::counter("photons stored", || {
+            serde_json::Value::Object(
+                pass.photon_maps
+                    .iter()
+                    .map(|m| (format!("{:?}", m.class), m.stored.into()))
+                    .collect(),
+            )
+        });
+    }
     trace::counter("photons per gather", || {
         let g = &pass.gathers;
         let per = |n: u64| n as f64 / g.gathers.max(1) as f64;

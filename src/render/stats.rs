@@ -386,15 +386,20 @@ impl Stats {
             );
         }
         if let Some(p) = &self.progressive {
+            // The footprints' schedule, where there are photon maps (`direct` has none).
+            let schedule = if self.photon_maps.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    ", alpha {:.3} (global {:.3}), last caustic footprint area factor {:.4}",
+                    p.alpha, p.global_alpha, p.last_area_factor
+                )
+            };
             out += &format!(
-                "  progressive: {} ({:.3} s each, stopped by {}), alpha {:.3} (global \
-                 {:.3}), last caustic footprint area factor {:.4}; noise of the mean {}\n",
+                "  progressive: {} ({:.3} s each, stopped by {}){schedule}; noise of the mean {}\n",
                 p.describe_passes(),
                 p.seconds_per_pass,
                 p.stop.words(),
-                p.alpha,
-                p.global_alpha,
-                p.last_area_factor,
                 p.noise.describe()
             );
         }
