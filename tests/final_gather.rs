@@ -204,7 +204,7 @@ fn bad_gather_settings_are_clear_errors() {
     assert!(!ok);
     assert_eq!(
         stderr.trim(),
-        "photondiff: error: --gather-rays needs photon maps: --estimator direct has none"
+        "photondiff: error: --gather-rays does not apply to --estimator direct (it uses no photon maps)"
     );
     let (ok, stderr, _) = render(
         dir.path(),

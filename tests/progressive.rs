@@ -456,8 +456,8 @@ fn pass_options_are_validated_with_one_line_errors() {
     ]);
     assert_eq!(
         String::from_utf8_lossy(&out.stderr).trim(),
-        "photondiff: error: --passes and --target-noise do not apply to --estimator lighttrace \
-         (it takes --light-paths and --time-budget)"
+        "photondiff: error: --passes does not apply to --estimator lighttrace (it takes \
+         --light-paths and --time-budget)"
     );
 }
 

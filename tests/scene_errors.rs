@@ -1096,8 +1096,8 @@ fn an_option_of_another_estimator_is_refused() {
         ),
         (
             &["--estimator", "jensen", "--overlap", "8"][..],
-            "--overlap does not apply to --estimator jensen without --gather-rays (its k \
-             nearest photons have no footprints)",
+            "--overlap does not apply to --estimator jensen without --gather-rays or \
+             --probe-walls (its k nearest photons have no footprints)",
         ),
         (
             &[
@@ -1108,8 +1108,8 @@ fn an_option_of_another_estimator_is_refused() {
                 "--passes",
                 "2",
             ][..],
-            "--global-alpha does not apply to --estimator jensen without --gather-rays (its k \
-             nearest photons have no footprints)",
+            "--global-alpha does not apply to --estimator jensen without --gather-rays or \
+             --probe-walls (its k nearest photons have no footprints)",
         ),
         (
             &["--estimator", "pd", "--alpha", "0.1"][..],
@@ -1255,7 +1255,7 @@ fn options_are_refused_before_the_scene_is_read() {
         (
             "render",
             &["--estimator", "direct", "--gather-rays", "4"],
-            "--gather-rays needs photon maps: --estimator direct has none",
+            "--gather-rays does not apply to --estimator direct (it uses no photon maps)",
         ),
         (
             "photons",

@@ -251,7 +251,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     // Every option on its own and against the others before the scene is read: a large
     // scene takes seconds to load and build.
     let tile = checks::tile(args, kind)?;
-    checks::options(args, kind, pass_range.as_ref())?;
+    let run = reads::Run::of(args, kind, stop.passes);
+    checks::options(args, &run, pass_range.as_ref())?;
     let photon_options = PhotonOptions {
         radiance_map: args.gather_rays > 0,
         ..args.photons.options(&defaults, args.seed)?
@@ -381,7 +382,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     stats.memory.record_peak();
     let mut metadata = metadata::exr_metadata(
         args,
-        kind,
+        &run,
         hash,
         &options,
         &photon_options,

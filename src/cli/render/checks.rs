@@ -2,7 +2,8 @@
 //! a large scene takes seconds to load and build, and an option the run cannot honour is
 //! refused at once, with the option's name.
 
-use super::{estimator_kind, estimator_name, RenderArgs, MAX_TIME_BUDGET};
+use super::reads::Run;
+use super::{estimator_kind, RenderArgs, MAX_TIME_BUDGET};
 use photondiff::estimate::final_gather::MAX_NEAR_REACH;
 use photondiff::estimate::EstimatorKind;
 use photondiff::render::defaults::DEFAULT_PASSES;
@@ -62,12 +63,18 @@ pub(super) fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
         ));
     }
     let kind = estimator_kind(args);
-    if kind == EstimatorKind::Lighttrace && (args.passes.is_some() || args.target_noise.is_some()) {
-        return Err(
-            "--passes and --target-noise do not apply to --estimator lighttrace (it takes \
-             --light-paths and --time-budget)"
-                .to_string(),
-        );
+    if kind == EstimatorKind::Lighttrace {
+        for (given, option) in [
+            (args.passes.is_some(), "--passes"),
+            (args.target_noise.is_some(), "--target-noise"),
+        ] {
+            if given {
+                return Err(format!(
+                    "{option} does not apply to --estimator lighttrace (it takes --light-paths \
+                     and --time-budget)"
+                ));
+            }
+        }
     }
     let open = args.time_budget.is_some() || args.target_noise.is_some();
     let default = match kind {
@@ -75,26 +82,6 @@ pub(super) fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
         _ => 1,
     };
     let passes = passes.or(if open { None } else { Some(default) });
-    // The footprints shrink from one pass to the next: a one-pass render reads neither (the
-    // same image to the bit with --alpha 0.1 and 0.9).
-    if passes == Some(1) && super::reads::has_maps(kind) {
-        for (id, option) in [("alpha", "--alpha"), ("global_alpha", "--global-alpha")] {
-            if args.given.iter().any(|g| g == id) {
-                let why = match args.passes {
-                    Some(_) => "--passes 1".to_string(),
-                    None => format!(
-                        "one pass is the default of --estimator {}",
-                        estimator_name(kind)
-                    ),
-                };
-                return Err(format!(
-                    "{option} does not apply to a one-pass render ({why}): it shrinks the \
-                     footprints from one pass to the next; give --passes, --time-budget or \
-                     --target-noise for more"
-                ));
-            }
-        }
-    }
     Ok(StopRules {
         passes,
         time_budget: args.time_budget.map(std::time::Duration::from_secs_f64),
@@ -136,23 +123,14 @@ pub(super) fn tile(args: &RenderArgs, kind: EstimatorKind) -> Result<Option<Tile
 /// was ignored without a word, so each is refused.
 pub(super) fn options(
     args: &RenderArgs,
-    kind: EstimatorKind,
+    run: &Run,
     pass_range: Option<&Range<u64>>,
 ) -> Result<(), String> {
-    let no_maps = !super::reads::has_maps(kind);
-    if args.gather_rays > 0 {
-        if no_maps {
-            return Err(format!(
-                "--gather-rays needs photon maps: --estimator {} has none",
-                estimator_name(kind)
-            ));
-        }
-        if args.photon_maps.is_some() {
-            return Err(
-                "--gather-rays cannot read --photon-maps: final gathering traces its own radiance map"
-                    .into(),
-            );
-        }
+    if args.gather_rays > 0 && super::reads::has_maps(run.kind) && args.photon_maps.is_some() {
+        return Err(
+            "--gather-rays cannot read --photon-maps: final gathering traces its own radiance map"
+                .into(),
+        );
     }
     if let (Some(_), Some(range)) = (&args.photon_maps, pass_range) {
         // The file holds pass 0's photons; later passes trace their own.
@@ -173,6 +151,6 @@ pub(super) fn options(
     // Options refused where given and not read (`--photons 1000000` with `--estimator direct`
     // rendered the direct light alone, without a word): one table says which render reads
     // which, and the image's attributes name the same.
-    super::reads::refuse_unread(&args.given, kind, args.gather_rays)?;
+    super::reads::refuse_unread(&args.given, run)?;
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! The attributes a render writes into its EXR: what was rendered and how, so that an image
 //! says where it came from (`photondiff merge` and `report` read them back).
 
-use super::reads::reads_attribute;
+use super::reads::{reads_attribute, Run};
 use super::RenderArgs;
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::options::PhotonOptions;
@@ -15,7 +15,7 @@ use photondiff::scene::hash::hex;
 /// (`--estimator direct` wrote `photons=100000` and `k`, options its command line refuses).
 pub(super) fn exr_metadata(
     args: &RenderArgs,
-    kind: EstimatorKind,
+    run: &Run,
     hash: u64,
     options: &RenderOptions,
     photons: &PhotonOptions,
@@ -26,8 +26,17 @@ pub(super) fn exr_metadata(
         ("scene", args.scene.display().to_string()),
         ("scene_hash", hex(hash)),
         ("view_grid", args.view_grid.to_string()),
-        ("edge_grid", options.edge_grid.to_string()),
-        ("estimator", format!("{kind:?}").to_lowercase()),
+        // The grid an edge pixel was rendered on: an edge grid no finer than the view grid is off.
+        (
+            "edge_grid",
+            if options.edge_grid > args.view_grid {
+                options.edge_grid
+            } else {
+                1
+            }
+            .to_string(),
+        ),
+        ("estimator", format!("{:?}", run.kind).to_lowercase()),
         ("photons", photons.global_photons.to_string()),
         ("caustic_photons", photons.caustic_photons.to_string()),
         ("k", settings.k.to_string()),
@@ -52,19 +61,21 @@ pub(super) fn exr_metadata(
         ("stats", serde_json::to_string(stats).unwrap_or_default()),
     ]
     .into_iter()
-    .filter(|(name, _)| reads_attribute(kind, args.gather_rays, name))
+    .filter(|(name, _)| reads_attribute(run, name))
     .map(|(name, value)| (format!("photondiff/{name}"), value))
     .collect();
-    if kind == EstimatorKind::Lighttrace {
+    if run.kind == EstimatorKind::Lighttrace {
         metadata.push((
             "photondiff/light_paths".to_string(),
             stats.light_paths.to_string(),
         ));
     }
     if let Some(p) = &stats.progressive {
-        metadata.extend(pass_metadata(p).into_iter().filter(|(name, _)| {
-            reads_attribute(kind, args.gather_rays, &name["photondiff/".len()..])
-        }));
+        metadata.extend(
+            pass_metadata(p)
+                .into_iter()
+                .filter(|(name, _)| reads_attribute(run, &name["photondiff/".len()..])),
+        );
     }
     metadata
 }
@@ -91,7 +102,14 @@ mod tests {
     use super::*;
 
     fn reads(kind: EstimatorKind, gather_rays: u32, attribute: &str) -> bool {
-        reads_attribute(kind, gather_rays, attribute)
+        let run = Run {
+            kind,
+            gather_rays,
+            probe_walls: false,
+            one_pass: false,
+            passes_given: false,
+        };
+        reads_attribute(&run, attribute)
     }
 
     /// Each estimator's attributes name the options it reads: `direct` no photon counts,

@@ -2,17 +2,58 @@
 //! given where nothing reads it is refused) and [`super::metadata`] (an image's attributes
 //! name the settings its estimator read, no more) both ask, so that the two cannot disagree.
 
-use super::estimator_name;
+use super::{estimator_name, RenderArgs};
 use photondiff::estimate::EstimatorKind;
+use photondiff::render::defaults::RenderDefaults;
+
+/// What decides whether a render reads a setting.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Run {
+    pub kind: EstimatorKind,
+    /// Final-gather rays (`--gather-rays`).
+    pub gather_rays: u32,
+    /// Whether photons probe for walls (`--probe-walls`, or the estimator's default): the
+    /// mirror photons beyond a wall depend on the footprints then, even for `jensen`.
+    pub probe_walls: bool,
+    /// Whether the render is one pass (`--passes 1`, or the estimator's default without a
+    /// budget or target).
+    pub one_pass: bool,
+    /// Whether `--passes` was given.
+    pub passes_given: bool,
+}
+
+impl Run {
+    /// The run `args` asks for, of `passes` (`None`: as many as a budget or target take).
+    pub fn of(args: &RenderArgs, kind: EstimatorKind, passes: Option<u64>) -> Self {
+        Run {
+            kind,
+            gather_rays: args.gather_rays,
+            probe_walls: args
+                .photons
+                .probe_walls
+                .unwrap_or(RenderDefaults::for_estimator(kind).probe_walls),
+            one_pass: passes == Some(1),
+            passes_given: args.passes.is_some(),
+        }
+    }
+}
 
 /// What reads a setting that only some renders read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Reader {
     /// Every estimator with photon maps (not `direct`, not `lighttrace`).
     PhotonMaps,
+    /// The global map's aimed emissions: estimators with photon maps, without final gathering
+    /// (whose map is never aimed: the same image to the bit with any `--global-aim`).
+    AimedGlobalMap,
     /// The photons' footprints: estimators with photon maps, `jensen` only with final gathering
-    /// (its k nearest photons have none; its radiance map sizes its points by them).
+    /// (its k nearest photons have none; its radiance map sizes its points by them) or probed
+    /// walls (a wall is found within a photon's footprint, and its mirror photon added).
     Footprints,
+    /// The footprints' schedule from pass to pass (`--alpha`): photon maps, more than one pass.
+    Schedule,
+    /// The global map's schedule (`--global-alpha`): footprints, more than one pass.
+    GlobalSchedule,
     /// Final gathering (`--gather-rays` above 0).
     FinalGathering,
     /// One estimator alone.
@@ -74,7 +115,7 @@ const SETTINGS: &[Setting] = &[
         "global_aim",
         "--global-aim",
         "global_aim",
-        Reader::PhotonMaps,
+        Reader::AimedGlobalMap,
     ),
     setting(
         "probe_walls",
@@ -82,12 +123,12 @@ const SETTINGS: &[Setting] = &[
         "probe_walls",
         Reader::PhotonMaps,
     ),
-    setting("alpha", "--alpha", "alpha", Reader::PhotonMaps),
+    setting("alpha", "--alpha", "alpha", Reader::Schedule),
     setting(
         "global_alpha",
         "--global-alpha",
         "global_alpha",
-        Reader::Footprints,
+        Reader::GlobalSchedule,
     ),
     setting(
         "gather_rays",
@@ -131,30 +172,54 @@ const SETTINGS: &[Setting] = &[
 ];
 
 impl Reader {
-    fn reads(self, kind: EstimatorKind, gather_rays: u32) -> bool {
+    fn reads(self, run: &Run) -> bool {
         use EstimatorKind::*;
-        let maps = has_maps(kind);
+        let maps = has_maps(run.kind);
+        let footprints = maps && (run.kind != Jensen || run.gather_rays > 0 || run.probe_walls);
         match self {
             Reader::PhotonMaps => maps,
-            Reader::Footprints => maps && (kind != Jensen || gather_rays > 0),
-            Reader::FinalGathering => maps && gather_rays > 0,
-            Reader::Estimator(owner) => kind == owner,
-            Reader::CameraRays => kind != Lighttrace,
-            Reader::LightTracer => kind == Lighttrace,
+            Reader::AimedGlobalMap => maps && run.gather_rays == 0,
+            Reader::Footprints => footprints,
+            Reader::Schedule => maps && !run.one_pass,
+            Reader::GlobalSchedule => footprints && !run.one_pass,
+            Reader::FinalGathering => maps && run.gather_rays > 0,
+            Reader::Estimator(owner) => run.kind == owner,
+            Reader::CameraRays => run.kind != Lighttrace,
+            Reader::LightTracer => run.kind == Lighttrace,
         }
     }
 
-    /// Why `option` does nothing in a render with estimator `kind`.
-    fn refusal(self, option: &str, kind: EstimatorKind) -> String {
-        let name = estimator_name(kind);
+    /// Why `option` does nothing in `run`.
+    fn refusal(self, option: &str, run: &Run) -> String {
+        let name = estimator_name(run.kind);
+        let of_maps = !matches!(
+            self,
+            Reader::Estimator(_) | Reader::CameraRays | Reader::LightTracer
+        );
+        if of_maps && !has_maps(run.kind) {
+            return format!(
+                "{option} does not apply to --estimator {name} (it uses no photon maps)"
+            );
+        }
         match self {
-            Reader::PhotonMaps | Reader::Footprints if !has_maps(kind) => {
-                format!("{option} does not apply to --estimator {name} (it uses no photon maps)")
+            Reader::AimedGlobalMap => format!(
+                "{option} does not apply with --gather-rays (final gathering's map is not aimed)"
+            ),
+            Reader::Schedule | Reader::GlobalSchedule if run.one_pass => {
+                let why = if run.passes_given {
+                    "--passes 1".to_string()
+                } else {
+                    format!("one pass is the default of --estimator {name}")
+                };
+                format!(
+                    "{option} does not apply to a one-pass render ({why}): it shrinks the \
+                     footprints from one pass to the next; give --passes, --time-budget or \
+                     --target-noise for more"
+                )
             }
-            Reader::PhotonMaps => unreachable!("read by every estimator with photon maps"),
-            Reader::Footprints => format!(
-                "{option} does not apply to --estimator jensen without --gather-rays (its k \
-                 nearest photons have no footprints)"
+            Reader::Footprints | Reader::GlobalSchedule => format!(
+                "{option} does not apply to --estimator jensen without --gather-rays or \
+                 --probe-walls (its k nearest photons have no footprints)"
             ),
             Reader::FinalGathering => {
                 format!("{option} applies with --gather-rays only (final gathering)")
@@ -170,6 +235,9 @@ impl Reader {
                  from the lights: it traces no camera rays)"
             ),
             Reader::LightTracer => format!("{option} applies to --estimator lighttrace only"),
+            Reader::PhotonMaps | Reader::Schedule => {
+                unreachable!("read by every estimator with photon maps in a run of passes")
+            }
         }
     }
 }
@@ -179,31 +247,25 @@ pub(super) fn has_maps(kind: EstimatorKind) -> bool {
     !matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace)
 }
 
-/// The first setting among `given` (clap's ids of the options given on the command line) that a
-/// render with estimator `kind` and `gather_rays` final-gather rays does not read, refused with
-/// why.
-pub(super) fn refuse_unread(
-    given: &[String],
-    kind: EstimatorKind,
-    gather_rays: u32,
-) -> Result<(), String> {
+/// The first setting among `given` (clap's ids of the options given on the command line) that
+/// `run` does not read, refused with why.
+pub(super) fn refuse_unread(given: &[String], run: &Run) -> Result<(), String> {
     match SETTINGS
         .iter()
-        .find(|s| given.iter().any(|g| g == s.id) && !s.reader.reads(kind, gather_rays))
+        .find(|s| given.iter().any(|g| g == s.id) && !s.reader.reads(run))
     {
-        Some(s) => Err(s.reader.refusal(s.option, kind)),
+        Some(s) => Err(s.reader.refusal(s.option, run)),
         None => Ok(()),
     }
 }
 
-/// Whether a render with estimator `kind` (and `gather_rays` final-gather rays) reads the
-/// setting its EXR attribute `attribute` names (the attributes of settings every render reads:
-/// yes).
-pub(super) fn reads_attribute(kind: EstimatorKind, gather_rays: u32, attribute: &str) -> bool {
+/// Whether `run` reads the setting its EXR attribute `attribute` names (the attributes of
+/// settings every render reads: yes).
+pub(super) fn reads_attribute(run: &Run, attribute: &str) -> bool {
     SETTINGS
         .iter()
         .find(|s| s.attribute == Some(attribute))
-        .is_none_or(|s| s.reader.reads(kind, gather_rays))
+        .is_none_or(|s| s.reader.reads(run))
 }
 
 #[cfg(test)]
@@ -234,8 +296,16 @@ mod tests {
     #[test]
     fn refused_where_not_read() {
         use EstimatorKind::*;
-        let refused =
-            |kind, gather_rays, id: &str| refuse_unread(&[id.to_string()], kind, gather_rays).err();
+        let run = |kind, gather_rays| Run {
+            kind,
+            gather_rays,
+            probe_walls: false,
+            one_pass: false,
+            passes_given: false,
+        };
+        let refused = |kind, gather_rays, id: &str| {
+            refuse_unread(&[id.to_string()], &run(kind, gather_rays)).err()
+        };
         assert_eq!(
             refused(Direct, 0, "gather_rays").as_deref(),
             Some("--gather-rays does not apply to --estimator direct (it uses no photon maps)")
@@ -246,6 +316,33 @@ mod tests {
             Some("--gather-near applies with --gather-rays only (final gathering)")
         );
         assert_eq!(refused(Pd, 8, "gather_near"), None);
+        // Final gathering's map is not aimed (the same image with any --global-aim).
+        assert_eq!(refused(Pd, 0, "global_aim"), None);
+        assert_eq!(
+            refused(Integrated, 8, "global_aim").as_deref(),
+            Some("--global-aim does not apply with --gather-rays (final gathering's map is not aimed)")
+        );
+        // Jensen's mirror photons beyond walls are found by the footprints.
+        let jensen = |probe_walls, one_pass, id: &str| {
+            let run = Run {
+                probe_walls,
+                one_pass,
+                ..run(Jensen, 0)
+            };
+            refuse_unread(&[id.to_string()], &run).err()
+        };
+        assert!(jensen(false, false, "overlap").is_some());
+        assert_eq!(jensen(true, false, "overlap"), None);
+        // A one-pass render has no schedule to shrink its footprints by.
+        assert_eq!(jensen(false, false, "alpha"), None);
+        assert_eq!(
+            jensen(true, true, "alpha").as_deref(),
+            Some(
+                "--alpha does not apply to a one-pass render (one pass is the default of \
+                 --estimator jensen): it shrinks the footprints from one pass to the next; give \
+                 --passes, --time-budget or --target-noise for more"
+            )
+        );
         for kind in [
             Direct,
             Lighttrace,
@@ -259,7 +356,7 @@ mod tests {
                 for s in SETTINGS.iter().filter(|s| s.attribute.is_some()) {
                     assert_eq!(
                         refused(kind, gather_rays, s.id).is_none(),
-                        reads_attribute(kind, gather_rays, s.attribute.unwrap()),
+                        reads_attribute(&run(kind, gather_rays), s.attribute.unwrap()),
                         "{kind:?} {gather_rays} {}",
                         s.id
                     );
