@@ -1209,7 +1209,7 @@ fn options_are_refused_before_the_scene_is_read() {
     let missing = dir.path().join("missing.toml");
     let out = dir.path().join("o.exr");
     let maps = dir.path().join("m.pm");
-    let cases: [(&str, &[&str], &str); 11] = [
+    let cases: [(&str, &[&str], &str); 12] = [
         (
             "render",
             &["--k", "3"],
@@ -1266,6 +1266,12 @@ fn options_are_refused_before_the_scene_is_read() {
             "photons",
             &["--global-aim", "-0.5"],
             "--global-aim must be at least 0 and less than 1, got -0.5",
+        ),
+        (
+            "photons",
+            &["--estimator", "jensen", "--overlap", "8"],
+            "--overlap does not apply to --estimator jensen without --probe-walls (its k \
+             nearest photons have no footprints, and a jensen render could not read these maps)",
         ),
     ];
     for (command, args, message) in cases {

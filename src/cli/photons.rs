@@ -5,6 +5,7 @@ use super::create_parent;
 use super::render::estimator_name;
 use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
+use photondiff::photons::options::PhotonOptions;
 use photondiff::photons::trace::TraceCounts;
 use photondiff::render::defaults::RenderDefaults;
 use photondiff::render::stats::{MemoryStats, Stats};
@@ -65,6 +66,19 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     }
     let defaults = RenderDefaults::for_estimator(args.estimator);
     let options = args.photons.options(&defaults, args.seed)?;
+    // A `jensen` render reads the footprints' size only where photons probe for walls (its k
+    // nearest photons have none), so it refuses --overlap otherwise, and it could read no file
+    // of another overlap (the file's settings must be the render's).
+    if args.estimator == EstimatorKind::Jensen
+        && !options.probe_walls
+        && options.overlap != PhotonOptions::default().overlap
+    {
+        return Err(
+            "--overlap does not apply to --estimator jensen without --probe-walls (its k \
+             nearest photons have no footprints, and a jensen render could not read these maps)"
+                .into(),
+        );
+    }
     super::start_trace(args.trace.as_deref())?;
     let mut stats = Stats::of_this_build();
     let (scene, hash) = stats.time("load scene", || {
