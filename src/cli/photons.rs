@@ -3,6 +3,7 @@
 
 use super::create_parent;
 use super::render::estimator_name;
+use super::render::reads::{reads_id, Run};
 use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
 use photondiff::photons::options::PhotonOptions;
@@ -55,10 +56,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     outputs.extend(args.stats_json.as_deref().map(|p| ("--stats-json", p)));
     outputs.extend(args.trace.as_deref().map(|p| ("--trace", p)));
     super::check_outputs(&outputs, &[("scene", &args.scene)])?;
-    if matches!(
-        args.estimator,
-        EstimatorKind::Direct | EstimatorKind::Lighttrace
-    ) {
+    if !super::render::reads::has_maps(args.estimator) {
         return Err(format!(
             "--estimator {} uses no photon maps",
             estimator_name(args.estimator)
@@ -66,18 +64,22 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     }
     let defaults = RenderDefaults::for_estimator(args.estimator);
     let options = args.photons.options(&defaults, args.seed)?;
-    // A `jensen` render reads the footprints' size only where photons probe for walls (its k
-    // nearest photons have none), so it refuses --overlap otherwise, and it could read no file
-    // of another overlap (the file's settings must be the render's).
-    if args.estimator == EstimatorKind::Jensen
-        && !options.probe_walls
-        && options.overlap != PhotonOptions::default().overlap
-    {
-        return Err(
-            "--overlap does not apply to --estimator jensen without --probe-walls (its k \
-             nearest photons have no footprints, and a jensen render could not read these maps)"
-                .into(),
-        );
+    // The render that reads the maps (never final gathering's: it traces its own) refuses an
+    // --overlap it does not read (`jensen` without probed walls), so it could read no file of
+    // an overlap other than its default (the file's settings must be the render's).
+    let render = Run {
+        kind: args.estimator,
+        gather_rays: 0,
+        probe_walls: options.probe_walls,
+        one_pass: false,
+        passes_given: false,
+    };
+    if !reads_id(&render, "overlap") && options.overlap != PhotonOptions::default().overlap {
+        let name = estimator_name(args.estimator);
+        return Err(format!(
+            "--overlap does not apply to --estimator {name} without --probe-walls (its k \
+             nearest photons have no footprints, and a {name} render could not read these maps)"
+        ));
     }
     super::start_trace(args.trace.as_deref())?;
     let mut stats = Stats::of_this_build();

@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 
 mod checks;
 mod metadata;
-mod reads;
+pub(super) mod reads;
 
 /// The longest `--time-budget` taken, in seconds: 365 days.
 const MAX_TIME_BUDGET: f64 = 31_536_000.0;
@@ -312,7 +312,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         )
         .with_progress(!args.quiet)
         .with_window(window);
-    if !matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace) {
+    if reads::has_maps(kind) {
         super::warn_photon_memory(
             &args.scene,
             photon_options.global_photons + photon_options.caustic_photons,

@@ -84,6 +84,16 @@ impl Default for RenderOptions {
 }
 
 impl RenderOptions {
+    /// The grid an edge pixel is rendered on: [`RenderOptions::edge_grid`] where it is finer
+    /// than the view grid, else 1 (edge pixels are not told apart).
+    pub fn edge_grid_used(&self) -> u32 {
+        if self.edge_grid > self.view_grid {
+            self.edge_grid
+        } else {
+            1
+        }
+    }
+
     /// Sets [`RenderOptions::view_grid`].
     pub fn with_view_grid(mut self, n: u32) -> Self {
         self.view_grid = n;
@@ -385,7 +395,7 @@ impl<'a> TileRenderer<'a> {
         let mut reach = vec![false; pixels.len()];
         let mut lights = vec![false; pixels.len()];
         let mut tally = PathTally::default();
-        let edge = if self.options.edge_grid > view_grid {
+        let edge = if self.options.edge_grid_used() > 1 {
             let rect = (tile.x0, tile.y0, tile.x1, tile.y1);
             match self.options.edges.as_ref().and_then(|m| m.tile(rect)) {
                 Some(edge) => edge,

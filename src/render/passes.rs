@@ -268,7 +268,7 @@ impl Progressive<'_> {
     pub fn with_edges_found(&self, stats: &mut Stats) -> Self {
         let mut run = self.clone();
         let r = &run.render;
-        if r.edge_grid > r.view_grid && r.edges.is_none() {
+        if r.edge_grid_used() > 1 && r.edges.is_none() {
             let camera = &self.scene.camera;
             let window = r
                 .window

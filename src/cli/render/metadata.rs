@@ -27,15 +27,7 @@ pub(super) fn exr_metadata(
         ("scene_hash", hex(hash)),
         ("view_grid", args.view_grid.to_string()),
         // The grid an edge pixel was rendered on: an edge grid no finer than the view grid is off.
-        (
-            "edge_grid",
-            if options.edge_grid > args.view_grid {
-                options.edge_grid
-            } else {
-                1
-            }
-            .to_string(),
-        ),
+        ("edge_grid", options.edge_grid_used().to_string()),
         ("estimator", format!("{:?}", run.kind).to_lowercase()),
         ("photons", photons.global_photons.to_string()),
         ("caustic_photons", photons.caustic_photons.to_string()),

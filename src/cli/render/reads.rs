@@ -8,7 +8,7 @@ use photondiff::render::defaults::RenderDefaults;
 
 /// What decides whether a render reads a setting.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Run {
+pub(crate) struct Run {
     pub kind: EstimatorKind,
     /// Final-gather rays (`--gather-rays`).
     pub gather_rays: u32,
@@ -243,7 +243,7 @@ impl Reader {
 }
 
 /// Whether estimator `kind` uses photon maps.
-pub(super) fn has_maps(kind: EstimatorKind) -> bool {
+pub(crate) fn has_maps(kind: EstimatorKind) -> bool {
     !matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace)
 }
 
@@ -257,6 +257,15 @@ pub(super) fn refuse_unread(given: &[String], run: &Run) -> Result<(), String> {
         Some(s) => Err(s.reader.refusal(s.option, run)),
         None => Ok(()),
     }
+}
+
+/// Whether `run` reads the setting of clap's id `id` (`photons` asks what the render that
+/// reads its maps will read).
+pub(crate) fn reads_id(run: &Run, id: &str) -> bool {
+    SETTINGS
+        .iter()
+        .find(|s| s.id == id)
+        .is_none_or(|s| s.reader.reads(run))
 }
 
 /// Whether `run` reads the setting its EXR attribute `attribute` names (the attributes of
