@@ -819,3 +819,64 @@ fn an_output_on_standard_output_is_not_followed_by_messages() {
     assert_eq!(json["threads"], 1);
     assert!(String::from_utf8_lossy(&out.stderr).starts_with("wrote "));
 }
+
+/// A render and a reference that name different scenes (`photondiff/scene_hash`) are compared,
+/// since that may be meant, but with a warning on standard error (and, in `report`, on the
+/// page): before, nothing showed that the figures compared two scenes.
+#[test]
+fn images_of_different_scenes_are_compared_with_a_warning() {
+    use photondiff::render::film::Film;
+    let d = tempfile::tempdir().unwrap();
+    let mut film = Film::new(2, 2);
+    film.pixels.fill(glam::DVec3::ONE);
+    let tagged = |name: &str, hash: Option<&str>| {
+        let path = d.path().join(name);
+        let meta: Vec<(String, String)> = hash
+            .map(|h| ("photondiff/scene_hash".to_string(), h.to_string()))
+            .into_iter()
+            .collect();
+        film.write_exr_window(&path, &meta, (0, 0), (2, 2)).unwrap();
+        path
+    };
+    let a = tagged("a.exr", Some("00000000000000aa"));
+    let a2 = tagged("a2.exr", Some("00000000000000aa"));
+    let b = tagged("b.exr", Some("00000000000000bb"));
+    let untagged = tagged("plain.exr", None);
+    let warning = format!(
+        "photondiff: warning: {} and {} are of different scenes (photondiff/scene_hash \
+         00000000000000bb and 00000000000000aa): the figures compare two scenes\n",
+        b.display(),
+        a.display()
+    );
+    let out = run(&[&b, &a]);
+    assert!(out.status.success());
+    assert_eq!(String::from_utf8_lossy(&out.stderr), warning);
+    for (image, reference) in [(&a2, &a), (&untagged, &a), (&b, &untagged)] {
+        let out = run(&[image, reference]);
+        assert!(out.status.success());
+        assert_eq!(
+            String::from_utf8_lossy(&out.stderr),
+            "",
+            "{image:?} {reference:?}"
+        );
+    }
+    let page = d.path().join("page");
+    let out = std::process::Command::new(bin())
+        .arg("report")
+        .arg("--reference")
+        .arg(&a)
+        .arg(format!("same={}", a2.display()))
+        .arg(format!("other={}", b.display()))
+        .arg("-o")
+        .arg(&page)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(String::from_utf8_lossy(&out.stderr), warning);
+    let html = std::fs::read_to_string(page.join("index.html")).unwrap();
+    assert_eq!(html.matches("are of different scenes").count(), 1);
+}

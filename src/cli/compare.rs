@@ -105,6 +105,9 @@ pub fn run(args: &CompareArgs) -> Result<(), String> {
     check_same_shape(&image, &args.image, &reference, &args.reference)?;
     // Two tiles of one size but from other places are not the same pixels.
     ChannelImage::check_same_origin(&args.image, &args.reference)?;
+    if let Some(warning) = ChannelImage::other_scene(&args.image, &args.reference)? {
+        photondiff::stderr_line!("photondiff: warning: {warning}");
+    }
     for mask in &args.masks {
         ChannelImage::check_same_origin(mask, &args.image)?;
     }

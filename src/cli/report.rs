@@ -140,6 +140,7 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
     }
     let reference = read_finite(&args.reference)?;
     let mut renders = Vec::new();
+    let mut scene_warnings = Vec::new();
     for arg in &args.renders {
         let (label, path) = parse_render(arg)?;
         // Two views of one caption could not be told apart on the page.
@@ -161,6 +162,11 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
             ));
         }
         ChannelImage::check_same_origin(&path, &args.reference)?;
+        // Said on the page as well: it is what the figures below would not show.
+        if let Some(warning) = ChannelImage::other_scene(&path, &args.reference)? {
+            photondiff::stderr_line!("photondiff: warning: {warning}");
+            scene_warnings.push(format!("Warning: {warning}."));
+        }
         renders.push(Render { label, film });
     }
     let mut regions = match &args.scene {
@@ -204,6 +210,7 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
         std::fs::metadata(c).map_err(|e| format!("{}: cannot open: {e}", c.display()))?;
     }
     let mut notes = vec![format!("Reference: {}.", args.reference.display())];
+    notes.extend(scene_warnings);
     if let Some(scene) = &args.scene {
         notes.push(format!(
             "Scene: {}. {}",

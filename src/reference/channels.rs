@@ -101,6 +101,54 @@ impl ChannelImage {
         Ok((p.x(), p.y()))
     }
 
+    /// A text attribute of the file's first layer (or of the file), read from the header
+    /// alone; `None` where it has none.
+    pub fn text_attribute(path: &Path, key: &str) -> Result<Option<String>, String> {
+        use exr::meta::attribute::AttributeValue;
+        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| {
+            format!(
+                "{}: cannot read EXR: {}",
+                path.display(),
+                one_line(&e.to_string())
+            )
+        })?;
+        let Some(header) = meta.headers.first() else {
+            return Ok(None);
+        };
+        let found = header
+            .own_attributes
+            .other
+            .iter()
+            .chain(header.shared_attributes.other.iter())
+            .find(|(name, _)| *name == key);
+        Ok(match found {
+            Some((_, AttributeValue::Text(text))) => Some(text.to_string()),
+            _ => None,
+        })
+    }
+
+    /// Where `image` and `other` both name the scene they were made of
+    /// (`photondiff/scene_hash`, which `render` and `reference` write) and the two differ, a
+    /// sentence saying so: the figures then compare two scenes (a reference of an edited
+    /// scene, another resolution's copy of the scene file), which may be meant (an instanced
+    /// scene against its flattened twin) but is more often a mistake that no figure shows.
+    pub fn other_scene(image: &Path, other: &Path) -> Result<Option<String>, String> {
+        const KEY: &str = "photondiff/scene_hash";
+        let (a, b) = (
+            Self::text_attribute(image, KEY)?,
+            Self::text_attribute(other, KEY)?,
+        );
+        Ok(match (a, b) {
+            (Some(a), Some(b)) if a != b => Some(format!(
+                "{} and {} are of different scenes ({KEY} {a} and {b}): the figures compare \
+                 two scenes",
+                image.display(),
+                other.display()
+            )),
+            _ => None,
+        })
+    }
+
     /// Writes the image as a 32-bit float EXR (tests and masks).
     pub fn write_exr(&self, path: &Path) -> Result<(), String> {
         use exr::prelude::*;
