@@ -333,3 +333,40 @@ fn a_dropped_pass_is_not_in_the_seconds_per_pass() {
         "{per_pass} s a pass over {passes}, stages {kept} s, dropped {dropped} s: {json}"
     );
 }
+
+/// A Ctrl-C while the scene loads exits at once: there is nothing to keep. The scene file is
+/// a named pipe nobody writes, so the loading never ends: before, the request waited for it
+/// (for a large scene, tens of seconds of loading and BVH building), here for ever.
+#[test]
+fn a_ctrl_c_while_the_scene_loads_exits_at_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let made = Command::new("mkfifo").arg(&scene).status().unwrap();
+    assert!(made.success());
+    for wait_ms in [1000, 3000, 9000] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+            .args(["render", "--quiet", "--threads", "1", "-o"])
+            .arg(dir.path().join("img.exr"))
+            .arg(&scene)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(wait_ms));
+        interrupt(&child, "INT");
+        let status = wait(&mut child);
+        let mut stderr = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+        if status.code().is_none() {
+            continue; // the signal came before the handler was installed
+        }
+        assert_eq!(status.code(), Some(130), "{stderr}");
+        assert_eq!(
+            stderr,
+            "\nphotondiff: interrupted before rendering began: exiting, nothing was rendered\n"
+        );
+        assert!(!dir.path().join("img.exr").exists());
+        return;
+    }
+    panic!("the render died of the signal three times: no handler");
+}

@@ -329,6 +329,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         gather_rays: args.gather_rays,
         gather_near: args.gather_near,
     };
+    // From here a Ctrl-C keeps what is done; before, it exits at once (`stop_on_ctrl_c`).
+    photondiff::util::interrupt::begin();
     let film = if kind == EstimatorKind::Lighttrace {
         light_trace(args, &scene, &embree, options.progress, &mut stats)?
     } else {
@@ -515,12 +517,20 @@ fn light_trace(
 
 /// Ctrl-C during a render: the first asks it to stop after the work under way (`first` says
 /// what: a pass, or `lighttrace`'s chunks of paths); the image of what was done is written as
-/// usual, and the exit status is 130. A second exits at once, writing nothing. Not for a
-/// worker's pass range (`--pass-range`), whose passes belong to a larger run: there Ctrl-C ends
-/// the process as usual.
+/// usual, and the exit status is 130. A second exits at once, writing nothing. Before the
+/// rendering begins (the scene loading, the BVH building) the first exits at once: there is
+/// nothing to keep, and waiting for a large scene's loading to end only to stop took tens of
+/// seconds. Not for a worker's pass range (`--pass-range`), whose passes belong to a larger
+/// run: there Ctrl-C ends the process as usual.
 fn stop_on_ctrl_c(first: &'static str) {
     // A handler already set (by an embedding program) is left alone.
     let _ = ctrlc::set_handler(move || {
+        if !photondiff::util::interrupt::begun() {
+            photondiff::stderr_line!(
+                "\nphotondiff: interrupted before rendering began: exiting, nothing was rendered"
+            );
+            std::process::exit(130);
+        }
         if photondiff::util::interrupt::request() {
             photondiff::stderr_line!(
                 "\nphotondiff: interrupted again: exiting without writing the image"

@@ -53,3 +53,18 @@ pub fn honour() {
 pub fn honoured() -> bool {
     HONOURED.load(Ordering::SeqCst)
 }
+
+/// Whether the run has begun the work a stop keeps (passes, light paths). Before it (reading
+/// the scene, hashing its meshes, building the BVH: tens of seconds for a large scene) a stop
+/// has nothing to keep, and the command line exits at once rather than after the loading.
+static BEGUN: AtomicBool = AtomicBool::new(false);
+
+/// Records that the work a stop keeps has begun.
+pub fn begin() {
+    BEGUN.store(true, Ordering::SeqCst);
+}
+
+/// Whether the work a stop keeps has begun ([`begin`]).
+pub fn begun() -> bool {
+    BEGUN.load(Ordering::SeqCst)
+}
