@@ -301,6 +301,44 @@ fn unrenderable_eyes_lights_and_intensities_are_refused() {
         assert!(scene.contains(from), "{from}");
         assert_eq!(error_of(&scene.replace(from, to), &[]), message);
     }
+    // Shapes beyond those coordinates are named by the fields written, whatever the size: the
+    // mesh's vertex was blamed (and "not finite" past 3.4e38, "parallel" edges near 1e160).
+    for (edge, reach) in [("1e19", "1e19"), ("1e100", "1e100"), ("1e200", "1e200")] {
+        let quad = format!(
+            "type = \"quad\"\ncorner = [0.0, 0.0, 0.0]\nedge_u = [{edge}, 0.0, 0.0]\n\
+             edge_v = [0.0, 0.0, 1.0]\nmaterial = \"white\""
+        );
+        assert_eq!(
+            error_of(&with_shape(&quad), &[]),
+            format!(
+                "shapes[0]: corner, edge_u and edge_v reach {reach}, beyond the coordinates \
+                 Embree takes (|x| < 1e18)"
+            )
+        );
+        let light = format!(
+            "{CAMERA}[[lights]]\ntype = \"quad\"\ncorner = [0.0, 3.0, 0.0]\nedge_u = [1.0, 0.0, 0.0]\n\
+             edge_v = [0.0, 0.0, -{edge}]\nradiance = [1.0, 1.0, 1.0]\n"
+        );
+        assert_eq!(
+            error_of(&light, &[]),
+            format!(
+                "lights[0]: corner, edge_u and edge_v reach {reach}, beyond the coordinates \
+                 Embree takes (|x| < 1e18)"
+            )
+        );
+    }
+    for (radius, reach) in [("1e19", "1e19"), ("1e300", "1e300")] {
+        let ball = format!(
+            "type = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = {radius}\nmaterial = \"white\""
+        );
+        assert_eq!(
+            error_of(&with_shape(&ball), &[]),
+            format!(
+                "shapes[0]: center and radius reach {reach}, beyond the coordinates Embree \
+                 takes (|x| < 1e18)"
+            )
+        );
+    }
     let quad = format!(
         "{CAMERA}[[lights]]\ntype = \"quad\"\ncorner = [0.0, 3.0, 0.0]\nedge_u = [1.0, 0.0, 0.0]\n\
          edge_v = [0.0, 0.0, 1.0]\nradiance = [1e21, 0.0, 0.0]\n"

@@ -330,6 +330,17 @@ fn parallelogram(field: &str, corner: Vec3, u: Vec3, v: Vec3) -> Result<[DVec3; 
     let c = vec3(&format!("{field}.corner"), corner)?;
     let u = vec3(&format!("{field}.edge_u"), u)?;
     let v = vec3(&format!("{field}.edge_v"), v)?;
+    // Named by the fields the user wrote: past this, the quad's mesh blamed its vertex 1 (or,
+    // with edges near 1e160, whose cross product overflows, called them parallel).
+    let reach = [c, c + u, c + v, c + u + v]
+        .iter()
+        .fold(0.0f64, |m, p| m.max(p.abs().max_element()));
+    if reach >= f64::from(MAX_COORDINATE) {
+        return Err(format!(
+            "{field}: corner, edge_u and edge_v reach {reach:e}, beyond the coordinates Embree \
+             takes (|x| < {MAX_COORDINATE:e})"
+        ));
+    }
     if u.cross(v).length() <= 1e-12 * u.length() * v.length() || u == DVec3::ZERO {
         return Err(format!(
             "{field}: edge_u and edge_v must be non-zero and not parallel"
@@ -490,6 +501,14 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
                 let radius = number(&format!("{field}.radius"), *radius)?;
                 if radius <= 0.0 {
                     return Err(format!("{field}.radius: must be > 0, got {radius}"));
+                }
+                // As a quad's corners: its mesh blamed its vertex 0, a point never written.
+                let reach = center.abs().max_element() + radius;
+                if reach >= f64::from(MAX_COORDINATE) {
+                    return Err(format!(
+                        "{field}: center and radius reach {reach:e}, beyond the coordinates \
+                         Embree takes (|x| < {MAX_COORDINATE:e})"
+                    ));
                 }
                 let segments = segments.unwrap_or(shapes::DEFAULT_SPHERE_SEGMENTS);
                 if !(3..=8192).contains(&segments) {
