@@ -682,3 +682,48 @@ fn concave_polygons_past_the_ear_clipping_limit_are_refused() {
         format!("l.ply: face 0 is {too_large}")
     );
 }
+
+/// A face that crosses itself (a bow tie; a pentagram) is triangulated as before but counted
+/// and warned about, in OBJ and in PLY: it was fanned without a word, covering area its
+/// outline does not (or some twice).
+#[test]
+fn faces_that_cross_themselves_are_warned_about() {
+    let obj = ok(
+        "bow.obj",
+        "v 0 0 0\nv 1 1 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+         f 1 2 3 4\nf 5 6 7 8\n",
+    );
+    assert_eq!(
+        (
+            obj.report.polygons,
+            obj.report.concave_polygons,
+            obj.report.crossing_polygons
+        ),
+        (2, 1, 1)
+    );
+    assert_eq!(
+        obj.report.warning().unwrap(),
+        "1 polygon crosses itself (triangulated anyway: the triangles may cover area the \
+         outline does not, or some twice; triangulate it first)"
+    );
+    let pentagram: String = (0..5)
+        .map(|i| {
+            let a = i as f64 * std::f64::consts::TAU / 5.0;
+            format!("{} {} 0\n", a.cos(), a.sin())
+        })
+        .collect();
+    let ply = ok(
+        "star.ply",
+        &format!(
+            "ply\nformat ascii 1.0\nelement vertex 5\nproperty float x\nproperty float y\n\
+             property float z\nelement face 2\nproperty list uchar int vertex_indices\n\
+             end_header\n{pentagram}5 0 2 4 1 3\n5 0 1 2 3 4\n"
+        ),
+    );
+    assert_eq!((ply.report.polygons, ply.report.crossing_polygons), (2, 1));
+    assert!(ply
+        .report
+        .warning()
+        .unwrap()
+        .starts_with("1 polygon crosses itself"));
+}

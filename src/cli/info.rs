@@ -106,6 +106,10 @@ fn describe(mesh: &TriangleMesh, report: &MeshReport) -> String {
             " (from {} faces; {} polygons triangulated, {} of them concave)",
             report.faces, report.polygons, report.concave_polygons
         );
+        if report.crossing_polygons > 0 {
+            s.pop(); // the closing parenthesis
+            s += &format!(", {} crossing themselves)", report.crossing_polygons);
+        }
     }
     s += &format!(
         "\n  normals    {}\n  bounds     {}\n  dropped    {}\n  repaired   {}\n",

@@ -26,6 +26,9 @@ pub struct MeshReport {
     pub polygons: u64,
     /// Of those, the concave ones (triangulated by ear clipping rather than as a fan).
     pub concave_polygons: u64,
+    /// Of the concave ones, those that cross themselves: ear clipping found no ear and fanned
+    /// what remained, which may cover area the outline does not (warned about).
+    pub crossing_polygons: u64,
     /// Zero-area (or non-finite-area) triangles dropped.
     pub degenerate_triangles: u64,
     /// The vertices of the first dropped triangle, for the warning.
@@ -73,6 +76,29 @@ impl MeshReport {
                 plural(self.against_normals)
             ));
         }
+        if self.crossing_polygons > 0 {
+            parts.push(format!(
+                "{} polygon{} cross{} {} (triangulated anyway: the triangles may cover \
+                 area the outline does not, or some twice; triangulate {} first)",
+                self.crossing_polygons,
+                plural(self.crossing_polygons),
+                if self.crossing_polygons == 1 {
+                    "es"
+                } else {
+                    ""
+                },
+                if self.crossing_polygons == 1 {
+                    "itself"
+                } else {
+                    "themselves"
+                },
+                if self.crossing_polygons == 1 {
+                    "it"
+                } else {
+                    "them"
+                },
+            ));
+        }
         if self.short_faces > 0 {
             parts.push(format!(
                 "skipped {} face{} of fewer than three vertices (not surfaces)",
@@ -106,6 +132,7 @@ impl MeshReport {
         self.faces += other.faces;
         self.polygons += other.polygons;
         self.concave_polygons += other.concave_polygons;
+        self.crossing_polygons += other.crossing_polygons;
         self.degenerate_triangles += other.degenerate_triangles;
         self.first_degenerate = self.first_degenerate.or(other.first_degenerate);
         self.repaired_normals += other.repaired_normals;

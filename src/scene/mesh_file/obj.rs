@@ -214,7 +214,9 @@ impl Builder {
         self.report.faces += 1;
         if n > 3 {
             self.report.polygons += 1;
-            self.report.concave_polygons += (shape == Shape::Concave) as u64;
+            self.report.concave_polygons +=
+                matches!(shape, Shape::Concave | Shape::Crossing) as u64;
+            self.report.crossing_polygons += (shape == Shape::Crossing) as u64;
         }
         Ok(())
     }

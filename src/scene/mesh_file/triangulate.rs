@@ -17,6 +17,9 @@ pub enum Shape {
     Convex,
     /// A concave polygon, ear-clipped.
     Concave,
+    /// A polygon that crosses itself (no ear left to clip): what remained was fanned, which
+    /// may cover area the outline does not, or cover some twice.
+    Crossing,
     /// A concave polygon of more than [`MAX_EAR_CLIPPED`] vertices: no triangle was emitted.
     TooLarge,
 }
@@ -55,6 +58,17 @@ pub fn triangulate(
             (a.x - b.x) * (a.y + b.y),
         );
     }
+    // A polygon whose lobes turn opposite ways (a bow tie) has a Newell normal of about
+    // zero: its plane is then that of its first corners (it crosses itself, as the winding
+    // below finds; projected along a zero normal it fell on a line).
+    if normal.length() <= 1e-9 * extent_squared(n, &at) {
+        let first = (2..n)
+            .map(|k| (at(1) - at(0)).cross(at(k) - at(0)))
+            .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()));
+        if let Some(c) = first.filter(|c| *c != DVec3::ZERO) {
+            normal = c;
+        }
+    }
     // Project along the normal's largest component, oriented so the polygon turns
     // counter-clockwise in 2D.
     let a = normal.abs();
@@ -91,17 +105,62 @@ pub fn triangulate(
         8.0 * f64::from(f32::EPSILON) * reach * ((b - a).length() + (c - b).length())
     };
     let convex = normal != DVec3::ZERO && (0..n).all(|i| turn(i) >= -rounding(i));
-    if convex {
+    // Turning one way at every corner and still crossing itself takes five corners and two
+    // turns around (a pentagram); a fan covers its middle twice.
+    if convex && (n < 5 || winds_once(pts) != Some(false)) {
         for i in 1..n - 1 {
             emit([0, i, i + 1]);
         }
         return Shape::Convex;
     }
+    if convex {
+        for i in 1..n - 1 {
+            emit([0, i, i + 1]);
+        }
+        return Shape::Crossing;
+    }
     if n > MAX_EAR_CLIPPED {
         return Shape::TooLarge;
     }
-    ear_clip(scratch, &mut emit);
-    Shape::Concave
+    let once = winds_once(&scratch.points);
+    if ear_clip(scratch, &mut emit) && once != Some(false) {
+        Shape::Concave
+    } else {
+        Shape::Crossing
+    }
+}
+
+/// The largest squared distance between the polygon's first corner and another: the scale a
+/// zero normal is judged against.
+fn extent_squared(n: usize, at: &impl Fn(usize) -> DVec3) -> f64 {
+    (1..n).fold(0.0, |m, i| m.max((at(i) - at(0)).length_squared()))
+}
+
+/// Whether the outline `pts` turns once around (as a simple polygon, a keyhole's slit
+/// included, does): the sum of its turning angles is `2 pi`. `None` where that cannot be told:
+/// an edge doubles back on the one before (a turn of `pi`, as like one way as the other), or
+/// every edge has zero length. Zero-length edges are skipped.
+fn winds_once(pts: &[DVec2]) -> Option<bool> {
+    let n = pts.len();
+    let edges = (0..n)
+        .map(|i| pts[(i + 1) % n] - pts[i])
+        .filter(|e| *e != DVec2::ZERO);
+    let (mut total, mut first, mut last) = (0.0, None, None::<DVec2>);
+    for e in edges {
+        if let Some(prev) = last {
+            total += turn_angle(prev, e)?;
+        }
+        first = first.or(Some(e));
+        last = Some(e);
+    }
+    total += turn_angle(last?, first?)?;
+    Some((total - std::f64::consts::TAU).abs() < 0.5)
+}
+
+/// The angle from direction `a` to direction `b`, in `(-pi, pi)`; `None` for a reversal.
+fn turn_angle(a: DVec2, b: DVec2) -> Option<f64> {
+    let angle = a.perp_dot(b).atan2(a.dot(b));
+    (angle.abs() < std::f64::consts::PI - 1e-9).then_some(angle)
 }
 
 /// Buffers reused across polygons.
@@ -117,14 +176,15 @@ pub struct Scratch {
 /// triangle's own corners, as where a hole is joined to its outline by a slit, is that corner
 /// again: either blocked every ear of a keyhole, which was fanned over its hole). Collinear
 /// corners are clipped without a triangle (it would have zero area). A polygon with no ear (it
-/// crosses itself) is fanned from what remains.
-fn ear_clip(scratch: &mut Scratch, emit: &mut impl FnMut([usize; 3])) {
+/// crosses itself) is fanned from what remains, and `false` says so.
+fn ear_clip(scratch: &mut Scratch, emit: &mut impl FnMut([usize; 3])) -> bool {
     let Scratch { points, ring } = scratch;
     ring.clear();
     ring.extend(0..points.len());
     let cross = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - b);
     let mut i = 0;
     let mut since_last_clip = 0;
+    let mut clipped_whole = true;
     while ring.len() > 3 {
         let m = ring.len();
         let (ip, inext) = ((i + m - 1) % m, (i + 1) % m);
@@ -160,13 +220,15 @@ fn ear_clip(scratch: &mut Scratch, emit: &mut impl FnMut([usize; 3])) {
             i = (i + 1) % m;
             since_last_clip += 1;
             if since_last_clip > m {
-                break; // no ear: a self-intersecting polygon
+                clipped_whole = false; // no ear: a self-intersecting polygon
+                break;
             }
         }
     }
     for w in ring[1..].windows(2) {
         emit([ring[0], w[0], w[1]]);
     }
+    clipped_whole
 }
 
 #[cfg(test)]
@@ -304,6 +366,51 @@ mod tests {
         let order: Vec<u32> = (0..circle.len() as u32).collect();
         let (s, out) = run(&order, &circle);
         assert_eq!((s, out.len()), (Shape::Convex, circle.len() - 2));
+    }
+
+    /// Polygons that cross themselves are told apart (the loaders warn of them): a bow tie,
+    /// whose two lobes turn opposite ways, and a pentagram, which turns one way at every corner
+    /// but twice around. Simple ones of the same corner counts are not.
+    #[test]
+    fn polygons_that_cross_themselves_are_told_apart() {
+        let bow_tie = [
+            [0.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+        ];
+        assert_eq!(run(&[0, 1, 2, 3], &bow_tie).0, Shape::Crossing);
+        assert_eq!(run(&[0, 2, 1, 3], &bow_tie).0, Shape::Convex);
+        let pentagon: Vec<[f32; 3]> = (0..5)
+            .map(|i| {
+                let a = i as f32 * std::f32::consts::TAU / 5.0;
+                [a.cos(), 0.0, a.sin()]
+            })
+            .collect();
+        let (s, out) = run(&[0, 2, 4, 1, 3], &pentagon);
+        assert_eq!((s, out.len()), (Shape::Crossing, 3));
+        assert_eq!(run(&[0, 1, 2, 3, 4], &pentagon).0, Shape::Convex);
+        assert_eq!(run(&[4, 3, 2, 1, 0], &pentagon).0, Shape::Convex);
+        // A figure eight of six corners: two squares that meet where the outline crosses.
+        let eight = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [2.0, 1.0, 0.0],
+            [2.0, 2.0, 0.0],
+            [0.5, 2.0, 0.0],
+        ];
+        let (s, _) = run(&[0, 1, 2, 3, 4, 5], &eight);
+        assert_eq!(s, Shape::Concave, "an L-like simple hexagon");
+        let crossing = [
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [2.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [0.0, -1.0, 0.0],
+        ];
+        assert_eq!(run(&[0, 1, 2, 3, 4, 5], &crossing).0, Shape::Crossing);
     }
 
     #[test]

@@ -275,7 +275,8 @@ impl Sink {
                 Shape::too_large(corners.len())
             ));
         }
-        self.report.concave_polygons += (shape == Shape::Concave) as u64;
+        self.report.concave_polygons += matches!(shape, Shape::Concave | Shape::Crossing) as u64;
+        self.report.crossing_polygons += (shape == Shape::Crossing) as u64;
         Ok(())
     }
 
