@@ -353,10 +353,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     super::start_trace(args.trace.as_deref())?;
     // Every stage runs on this pool, a merge's too (its noise per region is computed in
     // parallel): `--threads 1` holds for the whole run.
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads)
-        .build()
-        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    let pool = photondiff::util::pool::workers(args.threads)?;
     let mut stats = Stats::of_this_build();
     stats.threads = pool.current_num_threads();
     // What needs no scene is checked (and the parts read) before the scene is read: a large

@@ -489,10 +489,7 @@ fn light_trace(
         on_interrupt: true,
         ..LightTraceOptions::default()
     };
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(args.threads)
-        .build()
-        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    let pool = photondiff::util::pool::workers(args.threads)?;
     stats.threads = pool.current_num_threads();
     super::warn_camera_in_glass(&args.scene, scene, embree);
     super::warn_specular_pixels(&args.scene, scene, embree);

@@ -22,10 +22,7 @@ pub fn trace_photon_maps(
     progress: bool,
     stats: &mut Stats,
 ) -> Result<PhotonMaps, String> {
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    let pool = crate::util::pool::workers(threads)?;
     // (`photons` wrote 0; a render's image sets it again, to the same count.)
     stats.threads = pool.current_num_threads();
     let tracer = PhotonTracer::new(scene, embree, options);

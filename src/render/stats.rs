@@ -252,6 +252,25 @@ impl Stats {
         out
     }
 
+    /// [`Stats::time`] for a stage that recurs (once a pass): its seconds add to the stage of
+    /// that name, which keeps its first place among the stages.
+    pub fn time_summed<T>(&mut self, name: &str, f: impl FnOnce() -> T) -> T {
+        let mut once = Stats::default();
+        let out = once.time(name, f);
+        self.absorb_stages(once.stages);
+        out
+    }
+
+    /// Adds `stages` to this run's, by name.
+    fn absorb_stages(&mut self, stages: Vec<Stage>) {
+        for stage in stages {
+            match self.stages.iter_mut().find(|s| s.name == stage.name) {
+                Some(s) => s.seconds += stage.seconds,
+                None => self.stages.push(stage),
+            }
+        }
+    }
+
     /// Seconds spent in stage `name` (0 if absent).
     pub fn seconds(&self, name: &str) -> f64 {
         self.stages
@@ -264,12 +283,7 @@ impl Stats {
     /// Adds one progressive pass's statistics: stages add up by name, counts add up, and photon
     /// maps add up by class (their power too, until [`Stats::finish_passes`] averages it).
     pub fn absorb_pass(&mut self, pass: Stats) {
-        for stage in pass.stages {
-            match self.stages.iter_mut().find(|s| s.name == stage.name) {
-                Some(s) => s.seconds += stage.seconds,
-                None => self.stages.push(stage),
-            }
-        }
+        self.absorb_stages(pass.stages);
         self.rays.add(&pass.rays);
         self.invalid_rays += pass.invalid_rays;
         self.paths_cut_at_max_depth += pass.paths_cut_at_max_depth;

@@ -1,7 +1,7 @@
 //! Small utilities every stage shares: random number streams, progress bars, atomic file
 //! output, input files that are files, EXR inputs of a plausible size, the process's memory, a
-//! trace for profiling, the request to stop a run early and messages on standard error that
-//! cannot fail.
+//! trace for profiling, the request to stop a run early, the worker threads and messages on
+//! standard error that cannot fail.
 
 pub mod atomic;
 pub mod blocks;
@@ -9,6 +9,7 @@ pub mod exr_input;
 pub mod input;
 pub mod interrupt;
 pub mod memory;
+pub mod pool;
 pub mod progress;
 pub mod rng;
 pub mod stderr;

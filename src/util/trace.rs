@@ -4,6 +4,10 @@
 //! Recording is off unless [`enable`] was called; then each span costs a clock read and a
 //! mutex push when it ends. Written by hand rather than through `tracing-chrome` because that
 //! layer does not write counter events (`"ph": "C"`), which Perfetto draws as tracks.
+//!
+//! Each event is kept as its compact JSON text, so the trace holds in memory what its file
+//! will: kept as `serde_json::Value`s (and copied whole for writing), 70,000 events of a 10 MB
+//! file held 370 MB, and a run of a thousand passes at 640 x 480 would have held gigabytes.
 
 use serde_json::{json, Value};
 use std::borrow::Cow;
@@ -14,7 +18,8 @@ use std::time::Instant;
 
 struct Recorder {
     start: Instant,
-    events: Mutex<Vec<Value>>,
+    /// The events so far, each as compact JSON followed by a comma.
+    events: Mutex<Vec<u8>>,
 }
 
 static RECORDER: OnceLock<Recorder> = OnceLock::new();
@@ -44,7 +49,10 @@ fn recorder() -> &'static Recorder {
 
 fn push(event: Value) {
     if let Ok(mut events) = recorder().events.lock() {
-        events.push(event);
+        // Writing a `Value` into a `Vec` cannot fail; were it to, the event is left out.
+        if serde_json::to_writer(&mut *events, &event).is_ok() {
+            events.push(b',');
+        }
     }
 }
 
@@ -122,15 +130,25 @@ pub fn instant(name: &str, args: Value) {
 
 /// Writes what was recorded to `path` (whole or not at all), as `{"traceEvents": [...]}`.
 pub fn write(path: &Path) -> Result<(), String> {
-    let mut events = match recorder().events.lock() {
-        Ok(events) => events.clone(),
-        Err(_) => Vec::new(),
+    use std::io::Write;
+    let process = json!({"name": "process_name", "ph": "M", "pid": 1, "tid": 0,
+                         "args": {"name": "photondiff"}});
+    let events = match recorder().events.lock() {
+        Ok(events) => events,
+        Err(poisoned) => poisoned.into_inner(),
     };
-    events.push(
-        json!({"name": "process_name", "ph": "M", "pid": 1, "tid": 0,
-                       "args": {"name": "photondiff"}}),
-    );
-    let trace = json!({"traceEvents": events, "displayTimeUnit": "ms"});
-    let text = serde_json::to_vec(&trace).map_err(|e| e.to_string())?;
-    crate::util::atomic::write_bytes(path, &text)
+    crate::util::atomic::write_with(path, |out| {
+        out.write_all(b"{\"traceEvents\":[")?;
+        out.write_all(&events)?;
+        serde_json::to_writer(&mut *out, &process)?;
+        out.write_all(b"],\"displayTimeUnit\":\"ms\"}")
+    })
+}
+
+/// Bytes the events recorded so far hold in memory (about what their file will take).
+pub fn recorded_bytes() -> usize {
+    match recorder().events.lock() {
+        Ok(events) => events.capacity(),
+        Err(poisoned) => poisoned.into_inner().capacity(),
+    }
 }
