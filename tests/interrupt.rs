@@ -363,10 +363,69 @@ fn a_ctrl_c_while_the_scene_loads_exits_at_once() {
         assert_eq!(status.code(), Some(130), "{stderr}");
         assert_eq!(
             stderr,
-            "\nphotondiff: interrupted before rendering began: exiting, nothing was rendered\n"
+            "\nphotondiff: interrupted before there was anything to keep: exiting without writing\n"
         );
         assert!(!dir.path().join("img.exr").exists());
         return;
     }
     panic!("the render died of the signal three times: no handler");
+}
+
+/// `reference` stops as `lighttrace` does: a Ctrl-C during the light tracing writes the
+/// reference of the paths traced, its attribute naming them (so that no merge takes it for a
+/// reference of the paths asked), status 130. It ended the process, hours of paths lost.
+#[test]
+fn ctrl_c_ends_a_references_light_tracing_with_the_paths_traced() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, SCENE).unwrap();
+    let output = dir.path().join("ref.exr");
+    for wait_ms in [2000, 5000, 12000] {
+        // 10^9 + 10^9 paths (the default): hours, but for the signal.
+        let mut child = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+            .args(["reference", "--quiet", "--threads", "1", "-o"])
+            .arg(&output)
+            .arg(&scene)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(Duration::from_millis(wait_ms));
+        interrupt(&child, "INT");
+        let status = wait(&mut child);
+        let mut stderr = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+        if status.code().is_none() || stderr.contains("before there was anything to keep") {
+            continue; // the signal came before the light tracing: nothing was kept
+        }
+        assert_eq!(status.code(), Some(130), "{stderr}");
+        let attribute = |path: &Path, key: &str| {
+            photondiff::render::part::read_part(path).unwrap().metadata[key].clone()
+        };
+        let tag = attribute(&output, "photondiff/reference");
+        let counts: Vec<u64> = tag.split('-').take(2).map(|n| n.parse().unwrap()).collect();
+        let (global, caustic) = (counts[0], counts[1]);
+        assert!(global > 0 && caustic > 0, "{tag}");
+        assert!(global + caustic < 2_000_000_000, "{tag}");
+        assert_eq!(tag, format!("{global}-{caustic}-16x17"));
+        assert!(
+            stderr.trim().ends_with(&format!(
+            "photondiff: interrupted: the reference is of the {global} + {caustic} caustic light \
+             paths traced (of 1000000000 + 1000000000 asked; its attribute says so: \
+             photondiff/reference {tag})"
+        )),
+            "{stderr}"
+        );
+        // Its halves say the same.
+        for half in ["ref-a.exr", "ref-b.exr"] {
+            assert_eq!(
+                attribute(&dir.path().join(half), "photondiff/reference"),
+                tag
+            );
+        }
+        let film = Film::read_exr(&output).unwrap();
+        assert!(film.pixels.iter().all(|p| p.is_finite()));
+        return;
+    }
+    panic!("the signal never came during the light tracing");
 }

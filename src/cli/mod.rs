@@ -169,6 +169,35 @@ pub fn start_trace(trace: Option<&Path>) -> Result<(), String> {
     Ok(())
 }
 
+/// Ctrl-C during a render or a reference: the first asks it to stop after the work under way (`first` says
+/// what: a pass, or the chunks of light paths of `lighttrace` and `reference`); the image of what was done is written as
+/// usual, and the exit status is 130. A second exits at once, writing nothing. Before the
+/// rendering begins (the scene loading, the BVH building) the first exits at once: there is
+/// nothing to keep, and waiting for a large scene's loading to end only to stop took tens of
+/// seconds (and, for `reference`, its direct light). Not for a worker's pass range
+/// (`--pass-range`), whose passes belong to a larger run: there Ctrl-C ends the process as
+/// usual.
+pub(crate) fn stop_on_ctrl_c(first: &'static str) {
+    // A handler already set (by an embedding program) is left alone.
+    let _ = ctrlc::set_handler(move || {
+        if !photondiff::util::interrupt::begun() {
+            photondiff::stderr_line!(
+                "\nphotondiff: interrupted before there was anything to keep: exiting without writing"
+            );
+            std::process::exit(130);
+        }
+        if photondiff::util::interrupt::request() {
+            photondiff::stderr_line!(
+                "\nphotondiff: interrupted again: exiting without writing the image"
+            );
+            std::process::exit(130);
+        }
+        photondiff::stderr_line!(
+            "\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)"
+        );
+    });
+}
+
 /// Where `--trace` goes, once [`start_trace`] has begun it, and whether a failed run may
 /// write it there ([`write_trace_of_failure`]): only once the scene is read and no output
 /// names one of its mesh files ([`load_scene`]), which a failure's trace would overwrite.

@@ -2,7 +2,7 @@
 //! light-traced; see `photondiff::reference::cache`), with its two halves and its noise.
 
 use super::create_parent;
-use photondiff::reference::cache::{make, merge, Reference, ReferenceSettings};
+use photondiff::reference::cache::{make_stoppable, merge, Reference, ReferenceSettings};
 use photondiff::reference::light_tracer::MAX_PATHS;
 use photondiff::reference::metrics::Regions;
 use photondiff::render::film::Film;
@@ -350,6 +350,10 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     if args.merge.is_empty() && args.light_paths == 0 && args.caustic_paths == 0 {
         return Err("--light-paths and --caustic-paths cannot both be 0".into());
     }
+    // From the start, so that a Ctrl-C while the scene loads is not lost either.
+    super::stop_on_ctrl_c(
+        "finishing the light paths under way, then writing the reference of the paths traced",
+    );
     super::start_trace(args.trace.as_deref())?;
     // Every stage runs on this pool, a merge's too (its noise per region is computed in
     // parallel): `--threads 1` holds for the whole run.
@@ -390,7 +394,7 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         };
         return pool.install(|| write(args, &scene, &embree, &made, stats));
     }
-    let settings = ReferenceSettings {
+    let mut settings = ReferenceSettings {
         light_paths: args.light_paths,
         caustic_paths: args.caustic_paths,
         direct_grids: grids,
@@ -405,15 +409,18 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
                 photondiff::stderr_line!("{m}")
             }
         };
-        make(
+        make_stoppable(
             &scene,
             &embree,
             &settings,
+            true,
             !args.quiet,
             &mut log,
             &mut stats,
         )
     })?;
+    // An interrupted reference is of the paths traced, and says so in its attribute.
+    let (reference, asked) = (reference.0, std::mem::replace(&mut settings, reference.1));
     let made = Made {
         reference,
         meta: vec![
@@ -426,7 +433,19 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         ],
         seconds: Some(start.elapsed().as_secs_f64()),
     };
-    pool.install(|| write(args, &scene, &embree, &made, stats))
+    pool.install(|| write(args, &scene, &embree, &made, stats))?;
+    if photondiff::util::interrupt::honoured() {
+        photondiff::stderr_line!(
+            "photondiff: interrupted: the reference is of the {} + {} caustic light paths \
+             traced (of {} + {} asked; its attribute says so: {META_KEY} {})",
+            settings.light_paths,
+            settings.caustic_paths,
+            asked.light_paths,
+            asked.caustic_paths,
+            settings.tag()
+        );
+    }
+    Ok(())
 }
 
 /// A reference made or merged, ready to be written.

@@ -210,7 +210,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     )?;
     if pass_range.is_none() {
         // From the start, so that a Ctrl-C while the scene loads is not lost either.
-        stop_on_ctrl_c(if kind == EstimatorKind::Lighttrace {
+        super::stop_on_ctrl_c(if kind == EstimatorKind::Lighttrace {
             "finishing the light paths under way, then writing the image of the paths traced"
         } else {
             "dropping the pass under way, then writing the mean of the passes done"
@@ -329,7 +329,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         gather_rays: args.gather_rays,
         gather_near: args.gather_near,
     };
-    // From here a Ctrl-C keeps what is done; before, it exits at once (`stop_on_ctrl_c`).
+    // From here a Ctrl-C keeps what is done; before, it exits at once
+    // (`super::stop_on_ctrl_c`).
     photondiff::util::interrupt::begin();
     let film = if kind == EstimatorKind::Lighttrace {
         light_trace(args, &scene, &embree, options.progress, &mut stats)?
@@ -510,34 +511,6 @@ fn light_trace(
     stats.light_rays = result.rays;
     stats.reference_noise = result.relative_noise(&result.film.lit_pixels());
     Ok(result.film)
-}
-
-/// Ctrl-C during a render: the first asks it to stop after the work under way (`first` says
-/// what: a pass, or `lighttrace`'s chunks of paths); the image of what was done is written as
-/// usual, and the exit status is 130. A second exits at once, writing nothing. Before the
-/// rendering begins (the scene loading, the BVH building) the first exits at once: there is
-/// nothing to keep, and waiting for a large scene's loading to end only to stop took tens of
-/// seconds. Not for a worker's pass range (`--pass-range`), whose passes belong to a larger
-/// run: there Ctrl-C ends the process as usual.
-fn stop_on_ctrl_c(first: &'static str) {
-    // A handler already set (by an embedding program) is left alone.
-    let _ = ctrlc::set_handler(move || {
-        if !photondiff::util::interrupt::begun() {
-            photondiff::stderr_line!(
-                "\nphotondiff: interrupted before rendering began: exiting, nothing was rendered"
-            );
-            std::process::exit(130);
-        }
-        if photondiff::util::interrupt::request() {
-            photondiff::stderr_line!(
-                "\nphotondiff: interrupted again: exiting without writing the image"
-            );
-            std::process::exit(130);
-        }
-        photondiff::stderr_line!(
-            "\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)"
-        );
-    });
 }
 
 /// An estimator's name as `--estimator` takes it.

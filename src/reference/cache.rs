@@ -93,6 +93,22 @@ pub fn make(
     log: &mut dyn FnMut(&str),
     stats: &mut Stats,
 ) -> Result<Reference, String> {
+    make_stoppable(scene, embree, settings, false, progress, log, stats).map(|(r, _)| r)
+}
+
+/// [`make`], whose light tracing stops early (after the chunks of paths under way) when
+/// `on_interrupt` and [`crate::util::interrupt`] asks it to: a reference of hours is not lost
+/// to a Ctrl-C. Returns the settings as traced too: the light paths of each set counted as
+/// traced, which is what the reference is of (those asked when it ran to its end).
+pub fn make_stoppable(
+    scene: &Scene,
+    embree: &embree::Scene,
+    settings: &ReferenceSettings,
+    on_interrupt: bool,
+    progress: bool,
+    log: &mut dyn FnMut(&str),
+    stats: &mut Stats,
+) -> Result<(Reference, ReferenceSettings), String> {
     let mut direct = Vec::new();
     for (&grid, half) in settings.direct_grids.iter().zip(["A", "B"]) {
         log(&format!(
@@ -114,9 +130,14 @@ pub fn make(
         caustic_paths: settings.caustic_paths,
         direct: false,
         seed: settings.seed,
+        on_interrupt,
         ..LightTraceOptions::default()
     };
     let tracer = LightTracer::new(scene, embree, &options);
+    if on_interrupt {
+        // From here a stop keeps the paths traced; before, there was nothing to keep.
+        crate::util::interrupt::begin();
+    }
     // As many as the tracer traces: an even number of whole chunks of each set.
     let (global, caustic) = tracer.planned_paths();
     log(&format!(
@@ -125,6 +146,14 @@ pub fn make(
     let bar = crate::util::progress::bar(progress, global + caustic, "light");
     let traced = stats.time("light tracing", || tracer.run(&bar));
     bar.finish_and_clear();
+    let as_traced = match crate::util::interrupt::honoured() && on_interrupt {
+        true => ReferenceSettings {
+            light_paths: traced.set_paths[0],
+            caustic_paths: traced.set_paths[1],
+            ..*settings
+        },
+        false => *settings,
+    };
     stats.light_paths = traced.paths;
     stats.light_rays = traced.rays;
     let sum = |a: &Film, b: &Film| Film {
@@ -149,11 +178,14 @@ pub fn make(
             .map(|(a, b)| (*a + *b) * 0.5)
             .collect(),
     };
-    Ok(Reference {
-        film,
-        half_a,
-        half_b,
-    })
+    Ok((
+        Reference {
+            film,
+            half_a,
+            half_b,
+        },
+        as_traced,
+    ))
 }
 
 /// The mean of references made with the same settings and different seeds: a reference with

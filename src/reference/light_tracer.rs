@@ -103,6 +103,9 @@ pub struct LightTraceResult {
     pub half_b: Film,
     /// Paths traced (global and caustic).
     pub paths: u64,
+    /// Of those, the global paths and the caustic ones (fewer than planned where a time
+    /// budget or an interrupt stopped the tracing).
+    pub set_paths: [u64; 2],
     /// Rays traced (path segments and camera connections).
     pub rays: u64,
 }
@@ -340,6 +343,7 @@ impl<'a> LightTracer<'a> {
             half_a: half(0),
             half_b: half(1),
             paths: counts.iter().flatten().sum(),
+            set_paths: [counts[0][0] + counts[0][1], counts[1][0] + counts[1][1]],
             rays,
         }
     }
