@@ -228,6 +228,14 @@ fn a_ctrl_c_cuts_the_pass_under_way_short() {
         "{stderr}"
     );
     assert!(took < Duration::from_secs(10), "{took:?}");
+    // The signal's own line says what will happen: it promised the mean of the passes done.
+    assert!(
+        stderr.contains(
+            "photondiff: interrupted: stopping the first pass, which is not finished: nothing \
+             will be written (Ctrl-C again to exit at once)\n"
+        ) && !stderr.contains("the mean of the passes done"),
+        "{stderr}"
+    );
     assert!(!dir.path().join("img.exr").exists());
 }
 

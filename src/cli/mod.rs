@@ -192,9 +192,17 @@ pub(crate) fn stop_on_ctrl_c(first: &'static str) {
             );
             std::process::exit(130);
         }
-        photondiff::stderr_line!(
-            "\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)"
-        );
+        if photondiff::util::interrupt::kept() {
+            photondiff::stderr_line!(
+                "\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)"
+            );
+        } else {
+            // It said it would write the passes done, then that none was.
+            photondiff::stderr_line!(
+                "\nphotondiff: interrupted: stopping the first pass, which is not finished: \
+                 nothing will be written (Ctrl-C again to exit at once)"
+            );
+        }
     });
 }
 

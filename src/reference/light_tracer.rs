@@ -273,6 +273,10 @@ impl<'a> LightTracer<'a> {
         if self.split() {
             sums[1] = [vec![DVec3::ZERO; n], vec![DVec3::ZERO; n]];
         }
+        if self.options.on_interrupt {
+            // A stop waits for the first round of paths, which it then keeps.
+            crate::util::interrupt::keep();
+        }
         let start = Instant::now();
         let round = 2 * rayon::current_num_threads();
         let mut next = 0;

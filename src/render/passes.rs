@@ -464,6 +464,7 @@ impl Progressive<'_> {
                 sum.add(&image);
                 NoiseEstimate::of(&sum)
             });
+            crate::util::interrupt::keep();
             // From the second pass: one pass has no noise estimate, and a 0 on the track
             // read as a noiseless image.
             if let Some(whole) = noise.whole {

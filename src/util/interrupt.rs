@@ -68,3 +68,18 @@ pub fn begin() {
 pub fn begun() -> bool {
     BEGUN.load(Ordering::SeqCst)
 }
+
+/// Whether the run holds work a stop would keep: a pass summed, or light paths under way
+/// (their tracer stops only after a round of them). Before it, a stop during the first pass
+/// writes nothing, and the message says so rather than promising the passes done.
+static KEPT: AtomicBool = AtomicBool::new(false);
+
+/// Records that the run holds work a stop would keep.
+pub fn keep() {
+    KEPT.store(true, Ordering::SeqCst);
+}
+
+/// Whether the run holds work a stop would keep ([`keep`]).
+pub fn kept() -> bool {
+    KEPT.load(Ordering::SeqCst)
+}
