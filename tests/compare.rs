@@ -861,21 +861,17 @@ fn images_of_different_scenes_are_compared_with_a_warning() {
         );
     }
     let page = d.path().join("page");
-    let out = std::process::Command::new(bin())
-        .arg("report")
-        .arg("--reference")
-        .arg(&a)
-        .arg(format!("same={}", a2.display()))
-        .arg(format!("other={}", b.display()))
-        .arg("-o")
-        .arg(&page)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let (same, other) = (
+        format!("same={}", a2.display()),
+        format!("other={}", b.display()),
     );
+    let reference: [&std::ffi::OsStr; 2] = ["--reference".as_ref(), a.as_os_str()];
+    let out = common::run_ok(["report".as_ref()].into_iter().chain(reference).chain([
+        same.as_ref(),
+        other.as_ref(),
+        "-o".as_ref(),
+        page.as_os_str(),
+    ]));
     assert_eq!(String::from_utf8_lossy(&out.stderr), warning);
     let html = std::fs::read_to_string(page.join("index.html")).unwrap();
     assert_eq!(html.matches("are of different scenes").count(), 1);

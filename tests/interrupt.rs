@@ -342,6 +342,30 @@ fn a_dropped_pass_is_not_in_the_seconds_per_pass() {
     );
 }
 
+/// Runs `photondiff COMMAND --quiet --threads 1 -o OUTPUT SCENE`, sends it Ctrl-C after
+/// `wait_ms`; its exit status and standard error.
+fn command_interrupted(
+    command: &str,
+    output: &Path,
+    scene: &Path,
+    wait_ms: u64,
+) -> (ExitStatus, String) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args([command, "--quiet", "--threads", "1", "-o"])
+        .arg(output)
+        .arg(scene)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(wait_ms));
+    interrupt(&child, "INT");
+    let status = wait(&mut child);
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    (status, stderr)
+}
+
 /// A Ctrl-C while the scene loads exits at once: there is nothing to keep. The scene file is
 /// a named pipe nobody writes, so the loading never ends: before, the request waited for it
 /// (for a large scene, tens of seconds of loading and BVH building), here for ever.
@@ -352,19 +376,8 @@ fn a_ctrl_c_while_the_scene_loads_exits_at_once() {
     let made = Command::new("mkfifo").arg(&scene).status().unwrap();
     assert!(made.success());
     for wait_ms in [1000, 3000, 9000] {
-        let mut child = Command::new(env!("CARGO_BIN_EXE_photondiff"))
-            .args(["render", "--quiet", "--threads", "1", "-o"])
-            .arg(dir.path().join("img.exr"))
-            .arg(&scene)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(Duration::from_millis(wait_ms));
-        interrupt(&child, "INT");
-        let status = wait(&mut child);
-        let mut stderr = String::new();
-        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+        let image = dir.path().join("img.exr");
+        let (status, stderr) = command_interrupted("render", &image, &scene, wait_ms);
         if status.code().is_none() {
             continue; // the signal came before the handler was installed
         }
@@ -390,19 +403,7 @@ fn ctrl_c_ends_a_references_light_tracing_with_the_paths_traced() {
     let output = dir.path().join("ref.exr");
     for wait_ms in [2000, 5000, 12000] {
         // 10^9 + 10^9 paths (the default): hours, but for the signal.
-        let mut child = Command::new(env!("CARGO_BIN_EXE_photondiff"))
-            .args(["reference", "--quiet", "--threads", "1", "-o"])
-            .arg(&output)
-            .arg(&scene)
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap();
-        std::thread::sleep(Duration::from_millis(wait_ms));
-        interrupt(&child, "INT");
-        let status = wait(&mut child);
-        let mut stderr = String::new();
-        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+        let (status, stderr) = command_interrupted("reference", &output, &scene, wait_ms);
         if status.code().is_none() || stderr.contains("before there was anything to keep") {
             continue; // the signal came before the light tracing: nothing was kept
         }

@@ -86,17 +86,7 @@ impl ChannelImage {
     /// Where the first layer's pixels lie in its image (the data window's corner): `(0, 0)`
     /// for a whole image, the tile's corner for a tile of one (`render --tile`).
     pub fn origin(path: &Path) -> Result<(i32, i32), String> {
-        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| {
-            format!(
-                "{}: cannot read EXR: {}",
-                path.display(),
-                one_line(&e.to_string())
-            )
-        })?;
-        let header = meta
-            .headers
-            .first()
-            .ok_or_else(|| format!("{}: no layer", path.display()))?;
+        let header = first_header(path)?.ok_or_else(|| format!("{}: no layer", path.display()))?;
         let p = header.own_attributes.layer_position;
         Ok((p.x(), p.y()))
     }
@@ -105,14 +95,7 @@ impl ChannelImage {
     /// alone; `None` where it has none.
     pub fn text_attribute(path: &Path, key: &str) -> Result<Option<String>, String> {
         use exr::meta::attribute::AttributeValue;
-        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| {
-            format!(
-                "{}: cannot read EXR: {}",
-                path.display(),
-                one_line(&e.to_string())
-            )
-        })?;
-        let Some(header) = meta.headers.first() else {
+        let Some(header) = first_header(path)? else {
             return Ok(None);
         };
         let found = header
@@ -216,6 +199,18 @@ impl ChannelImage {
             .map(|i| self.planes.iter().any(|p| p[i] > 0.0))
             .collect()
     }
+}
+
+/// The header of the file's first layer, read alone (`None`: the file has no layer).
+fn first_header(path: &Path) -> Result<Option<exr::meta::header::Header>, String> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| {
+        format!(
+            "{}: cannot read EXR: {}",
+            path.display(),
+            one_line(&e.to_string())
+        )
+    })?;
+    Ok(meta.headers.into_iter().next())
 }
 
 /// Library errors can span lines; the command line prints one.
