@@ -419,8 +419,8 @@ fn ctrl_c_ends_a_references_light_tracing_with_the_paths_traced() {
         assert_eq!(tag, format!("{global}-{caustic}-16x17"));
         assert!(
             stderr.trim().ends_with(&format!(
-            "photondiff: interrupted: the reference is of the {global} + {caustic} caustic light \
-             paths traced (of 1000000000 + 1000000000 asked; its attribute says so: \
+            "photondiff: interrupted: the reference is of the {global} light paths and {caustic} \
+             caustic paths traced (of 1000000000 and 1000000000 asked; its attribute says so: \
              photondiff/reference {tag})"
         )),
             "{stderr}"

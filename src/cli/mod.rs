@@ -169,14 +169,14 @@ pub fn start_trace(trace: Option<&Path>) -> Result<(), String> {
     Ok(())
 }
 
-/// Ctrl-C during a render or a reference: the first asks it to stop after the work under way (`first` says
-/// what: a pass, or the chunks of light paths of `lighttrace` and `reference`); the image of what was done is written as
-/// usual, and the exit status is 130. A second exits at once, writing nothing. Before the
-/// rendering begins (the scene loading, the BVH building) the first exits at once: there is
+/// Ctrl-C during a render or a reference: the first asks it to stop after the work under way
+/// (`first` says what: a pass, or the chunks of light paths of `lighttrace` and `reference`);
+/// the image of what was done is written as usual, and the exit status is 130. A second exits
+/// at once, writing nothing. Before the work a stop keeps begins (the scene's loading, the
+/// BVH's building, and for `reference` its direct light) the first exits at once: there is
 /// nothing to keep, and waiting for a large scene's loading to end only to stop took tens of
-/// seconds (and, for `reference`, its direct light). Not for a worker's pass range
-/// (`--pass-range`), whose passes belong to a larger run: there Ctrl-C ends the process as
-/// usual.
+/// seconds. Not for a worker's pass range (`--pass-range`), whose passes belong to a larger
+/// run: there Ctrl-C ends the process as usual.
 pub(crate) fn stop_on_ctrl_c(first: &'static str) {
     // A handler already set (by an embedding program) is left alone.
     let _ = ctrlc::set_handler(move || {

@@ -436,8 +436,8 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     pool.install(|| write(args, &scene, &embree, &made, stats))?;
     if photondiff::util::interrupt::honoured() {
         photondiff::stderr_line!(
-            "photondiff: interrupted: the reference is of the {} + {} caustic light paths \
-             traced (of {} + {} asked; its attribute says so: {META_KEY} {})",
+            "photondiff: interrupted: the reference is of the {} light paths and {} caustic \
+             paths traced (of {} and {} asked; its attribute says so: {META_KEY} {})",
             settings.light_paths,
             settings.caustic_paths,
             asked.light_paths,
