@@ -26,8 +26,8 @@ pub struct MeshReport {
     pub polygons: u64,
     /// Of those, the concave ones (triangulated by ear clipping rather than as a fan).
     pub concave_polygons: u64,
-    /// Of the concave ones, those that cross themselves: ear clipping found no ear and fanned
-    /// what remained, which may cover area the outline does not (warned about).
+    /// Of the concave ones, those that cross themselves (`triangulate::Shape::Crossing`):
+    /// triangulated anyway, which may cover area the outline does not (warned about).
     pub crossing_polygons: u64,
     /// Zero-area (or non-finite-area) triangles dropped.
     pub degenerate_triangles: u64,

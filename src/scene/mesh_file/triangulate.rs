@@ -17,8 +17,8 @@ pub enum Shape {
     Convex,
     /// A concave polygon, ear-clipped.
     Concave,
-    /// A polygon that crosses itself (no ear left to clip): what remained was fanned, which
-    /// may cover area the outline does not, or cover some twice.
+    /// A polygon that crosses itself (it does not turn once around, or ear clipping found no
+    /// ear): triangulated anyway, which may cover area the outline does not, or some twice.
     Crossing,
     /// A concave polygon of more than [`MAX_EAR_CLIPPED`] vertices: no triangle was emitted.
     TooLarge,
@@ -107,17 +107,14 @@ pub fn triangulate(
     let convex = normal != DVec3::ZERO && (0..n).all(|i| turn(i) >= -rounding(i));
     // Turning one way at every corner and still crossing itself takes five corners and two
     // turns around (a pentagram); a fan covers its middle twice.
-    if convex && (n < 5 || winds_once(pts) != Some(false)) {
-        for i in 1..n - 1 {
-            emit([0, i, i + 1]);
-        }
-        return Shape::Convex;
-    }
     if convex {
         for i in 1..n - 1 {
             emit([0, i, i + 1]);
         }
-        return Shape::Crossing;
+        return match n < 5 || winds_once(pts) != Some(false) {
+            true => Shape::Convex,
+            false => Shape::Crossing,
+        };
     }
     if n > MAX_EAR_CLIPPED {
         return Shape::TooLarge;
