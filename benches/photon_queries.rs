@@ -25,10 +25,7 @@ use std::path::Path;
 use std::time::Instant;
 
 fn main() {
-    let max: f64 = std::env::var("PHOTONDIFF_QUERIES_MAX_PHOTONS")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(1.28e6);
+    let max: f64 = env_or("PHOTONDIFF_QUERIES_MAX_PHOTONS", 1.28e6);
     let path = Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/scenes/caustic-sphere.toml"

@@ -53,10 +53,7 @@ fn exponent(points: &[(f64, f64)]) -> f64 {
 }
 
 fn cap(var: &str, default: f64) -> f64 {
-    std::env::var(var)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
+    common::env_or(var, default)
 }
 
 /// 640 x 480 camera rays from (0, 0, 4) towards a unit sphere at the origin (40 degrees).

@@ -19,11 +19,11 @@ use photondiff::scene::{Light, Scene};
 use plotters::prelude::*;
 use std::path::Path;
 
+#[path = "common/mod.rs"]
+mod common;
+
 fn env(name: &str, default: u64) -> u64 {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
+    common::env_or(name, default)
 }
 
 fn methods() -> Vec<Method> {

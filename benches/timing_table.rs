@@ -24,10 +24,7 @@ use photondiff::scene::file::load_scene;
 use std::path::Path;
 
 fn env(name: &str, default: u64) -> u64 {
-    std::env::var(name)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
+    common::env_or(name, default)
 }
 
 #[path = "common/mod.rs"]

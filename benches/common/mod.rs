@@ -10,12 +10,30 @@ use std::path::Path;
 use std::process::Command;
 use std::time::Instant;
 
-/// The environment variable `name` parsed, or `default` when it is unset or does not parse.
+/// The environment variable `name` parsed, or `default` when it is unset. A whole number may
+/// be written as the README writes counts (`1e8`, `2*10^7` is not taken). A value that does
+/// not parse stops the benchmark: it fell back to the default without a word, so
+/// `PHOTONDIFF_REFERENCE_PATHS=2e7` began a reference of 2*10^8 paths (40 minutes).
 pub fn env_or<T: std::str::FromStr>(name: &str, default: T) -> T {
-    std::env::var(name)
+    let Ok(text) = std::env::var(name) else {
+        return default;
+    };
+    let text = text.trim();
+    if let Ok(v) = text.parse() {
+        return v;
+    }
+    // `1e8`, `2.5e6`: a whole number in scientific notation.
+    let whole = text
+        .parse::<f64>()
         .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
+        .filter(|x| x.fract() == 0.0 && x.abs() < 9.0e15)
+        .and_then(|x| format!("{x:.0}").parse().ok());
+    whole.unwrap_or_else(|| {
+        eprintln!(
+            "{name}={text}: not a value this setting takes (a number such as 200000000 or 2e8)"
+        );
+        std::process::exit(2)
+    })
 }
 
 /// The median (the upper one of an even count).

@@ -284,7 +284,9 @@ pub fn load_or_make(
         "reference: making it (cached in {})",
         dir.display()
     ));
-    let reference = make(scene, embree, settings, false, log, &mut Stats::default())?;
+    // With its progress (a bar, or a line every 15 s in a log): the benchmarks' references
+    // take minutes, and their light tracing said nothing for all of them.
+    let reference = make(scene, embree, settings, true, log, &mut Stats::default())?;
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
     let meta = vec![
         ("photondiff/reference".to_string(), tag.clone()),
