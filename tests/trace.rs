@@ -54,6 +54,20 @@ fn run_traced(
     (out, trace, stats)
 }
 
+/// The canonical scene at `width` x `height` pixels, written into `dir`; its path.
+fn canonical_at(dir: &std::path::Path, width: u32, height: u32) -> std::path::PathBuf {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ))
+    .unwrap()
+    .replace("width = 640", &format!("width = {width}"))
+    .replace("height = 480", &format!("height = {height}"));
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    scene
+}
+
 /// The stage names of the statistics JSON in `path`, in order, with the statistics.
 fn stages_of(path: &std::path::Path) -> (Vec<String>, Value) {
     let stats: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
@@ -68,15 +82,7 @@ fn stages_of(path: &std::path::Path) -> (Vec<String>, Value) {
 fn the_trace_has_spans_per_stage_pass_and_tile_and_counters() {
     let dir = tempfile::tempdir().unwrap();
     // 64 x 48 pixels: 4 x 3 = 12 render tiles of 16 x 16 per pass.
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/caustic-sphere.toml"
-    ))
-    .unwrap()
-    .replace("width = 640", "width = 64")
-    .replace("height = 480", "height = 48");
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, text).unwrap();
+    let scene = canonical_at(dir.path(), 64, 48);
     let trace = dir.path().join("deep/trace.json");
     let trace_arg = trace.to_str().unwrap();
     let (stats, _) = render_file(
@@ -528,15 +534,7 @@ fn a_failed_run_writes_its_trace_and_a_finished_image_is_said_to_be_kept() {
 #[test]
 fn the_trace_holds_about_its_file_in_memory_and_one_track_per_thread() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/caustic-sphere.toml"
-    ))
-    .unwrap()
-    .replace("width = 640", "width = 160")
-    .replace("height = 480", "height = 120");
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, text).unwrap();
+    let scene = canonical_at(dir.path(), 160, 120);
     let trace = dir.path().join("trace.json");
     let args = [
         "-q",
