@@ -118,6 +118,7 @@ fn main() -> Result<(), String> {
     }
     println!();
     println!("|---|---|---|{}", "---|".repeat(rows.len()));
+    let mut resolution = common::Resolution::default();
     for (geom, px) in &walls {
         let noise = reference.relative_noise(px);
         print!(
@@ -128,12 +129,15 @@ fn main() -> Result<(), String> {
         );
         for (_, _, film) in &rows {
             print!(
-                " x{:.4}, {:.2}% |",
+                " x{:.4}, {} |",
                 mean(film, px) / mean(&reference.film, px),
-                100.0 * rel_rmse(film, &reference.film, px)
+                resolution.cell(rel_rmse(film, &reference.film, px), noise, 2, true)
             );
         }
         println!();
+    }
+    if resolution.any() {
+        println!("\n{}", resolution.note("PHOTONDIFF_REFERENCE_PATHS"));
     }
 
     println!(

@@ -366,16 +366,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut columns = vec!["method".to_string(), "region".to_string()];
         columns.extend(budgets.iter().map(|b| format!("{b} s")));
         let mut rows = Vec::new();
+        let mut resolution = common::Resolution::default();
         for curve in curves.iter().take(1).chain(&first_run).chain(&curves[1..]) {
             for (k, region) in REGIONS.iter().enumerate() {
                 if sets[k].is_empty() {
                     continue;
                 }
                 let mut row = vec![Value::from(curve.method.clone()), Value::from(*region)];
-                row.extend(curve.points.iter().map(|p| {
-                    let mark = if p.1[k] < 3.0 * noise[k] { "~" } else { "" };
-                    Value::from(format!("{mark}{:.4}", p.1[k]))
-                }));
+                row.extend(
+                    curve
+                        .points
+                        .iter()
+                        .map(|p| Value::from(resolution.cell(p.1[k], noise[k], 4, false))),
+                );
                 rows.push(row);
                 for (b, p) in budgets.iter().zip(&curve.points) {
                     csv += &format!(
@@ -389,9 +392,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             title: format!("Error against time: {name}"),
             columns,
             rows,
-            notes: vec![format!("relRMSE per region at each time budget; {reference_note} `~`: below three times the reference's noise there, which it cannot resolve.")],
+            notes: vec![format!("relRMSE per region at each time budget; {reference_note} {}", resolution.note("PHOTONDIFF_REFERENCE_PATHS, PHOTONDIFF_REFERENCE_LIGHT_PATHS, PHOTONDIFF_STRESS_REFERENCE_PATHS"))],
         };
         print!("{}", table.markdown());
+        if resolution.any() {
+            println!("\n{}", table.notes[0]);
+        }
         // The progressive default must fall monotonically wherever the reference can tell.
         let ours = &curves[0];
         for (k, region) in REGIONS.iter().enumerate() {

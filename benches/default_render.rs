@@ -77,6 +77,7 @@ fn main() -> Result<(), String> {
     );
     println!("| render | seconds | x Regular 1x1 | floor | caustic | contour | shadow |");
     println!("|---|---|---|---|---|---|---|");
+    let mut resolution = common::Resolution::default();
     let mut default_errors = [0.0; 4];
     let mut shadow_mean = 0.0;
     for (k, (name, _)) in methods.iter().enumerate() {
@@ -91,15 +92,23 @@ fn main() -> Result<(), String> {
         };
         shadow_mean = sum(&film) / sum(&reference.film);
         let t = median(times[k].clone());
+        let cells: Vec<String> = sets
+            .iter()
+            .zip(e)
+            .map(|((_, px), e)| resolution.cell(e, reference.relative_noise(px), 2, true))
+            .collect();
         println!(
-            "| {name} | {t:.3} | {:.2} | {:.2}% | {:.2}% | {:.2}% | {:.2}% |",
+            "| {name} | {t:.3} | {:.2} | {} |",
             t / base,
-            100.0 * e[0],
-            100.0 * e[1],
-            100.0 * e[2],
-            100.0 * e[3]
+            cells.join(" | ")
         );
         default_errors = e;
+    }
+    if resolution.any() {
+        println!(
+            "\n{}",
+            resolution.note("PHOTONDIFF_REFERENCE_PATHS, PHOTONDIFF_REFERENCE_LIGHT_PATHS")
+        );
     }
     let ratio = median(times[1].clone()) / base;
     // The two processes ran back to back in each repetition.

@@ -40,12 +40,15 @@ fn methods() -> Vec<Method> {
 /// One scene measured with every method: `(label, relRMSE, worst ratio, energy, guards, seconds)`.
 type Row = (String, f64, f64, f64, u64, f64);
 
+/// A scene's rows, and its reference's relative noise over the lit pixels (from its halves).
+type Measured = (Vec<Row>, f64);
+
 fn measure(
     scene: &Scene,
     name: &str,
     photons: (usize, usize),
     paths: u64,
-) -> Result<Vec<Row>, Box<dyn std::error::Error>> {
+) -> Result<Measured, Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let device = Device::new()?;
     let embree = scene.build_embree(&device)?;
@@ -83,7 +86,7 @@ fn measure(
             seconds,
         ));
     }
-    Ok(rows)
+    Ok((rows, reference.relative_noise(lit)))
 }
 
 fn at_160x120(mut scene: Scene) -> Scene {
@@ -133,10 +136,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) over the pixels the reference lights (first hit diffuse, R > 0), against a reference of direct light on 16x16 and 17x17 rays per pixel plus {paths} + {paths} caustic light paths for the rest; worst = the largest I/R where R is at least a tenth of its mean; energy = sum(I)/sum(R) - 1 over the same pixels; guards = clamped or fallback footprints in both maps.\n");
     println!("| scene | method | relRMSE | worst I/R | energy | guards | render s |");
     println!("|---|---|---|---|---|---|---|");
+    let mut resolution = common::Resolution::default();
     for (k, (name, scene, photons)) in cases.iter().enumerate() {
         let file = format!("stress-{k}");
-        for (label, e, worst, energy, guards, seconds) in measure(scene, &file, *photons, paths)? {
-            println!("| {name} | {label} | {e:.4} | {worst:.2} | {energy:+.4} | {guards} | {seconds:.3} |");
+        let (rows, noise) = measure(scene, &file, *photons, paths)?;
+        for (label, e, worst, energy, guards, seconds) in rows {
+            let e = resolution.cell(e, noise, 4, false);
+            println!(
+                "| {name} | {label} | {e} | {worst:.2} | {energy:+.4} | {guards} | {seconds:.3} |"
+            );
         }
     }
 
@@ -163,7 +171,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             position,
             intensity: DVec3::splat(600.0),
         };
-        let rows = measure(
+        let (rows, noise) = measure(
             &scene,
             &format!("elevation-{e}"),
             (100_000, 20_000),
@@ -172,9 +180,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut line = format!("| {e} |");
         for (curve, row) in curves.iter_mut().zip(&rows) {
             curve.1.push((e, row.1));
-            line += &format!(" {:.4} |", row.1);
+            line += &format!(" {} |", resolution.cell(row.1, noise, 4, false));
         }
         println!("{line}");
+    }
+    if resolution.any() {
+        println!("\n{}", resolution.note("PHOTONDIFF_STRESS_REFERENCE_PATHS"));
     }
     plotters::style::register_font("sans-serif", FontStyle::Normal, dejavu::sans::regular())
         .map_err(|_| "cannot register the embedded font")?;

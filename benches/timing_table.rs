@@ -114,6 +114,9 @@ fn main() -> Result<(), String> {
     println!("Error: relRMSE = sqrt(mean over pixels and channels of (I - R)^2) / mean(R) against a reference of direct light on 16x16 and 17x17 rays per pixel plus {light_paths} + {paths} caustic light paths for the rest, over the floor ({} px), the caustic ({} px: reference > 1.5 x unblocked direct light) and its contour ({} px: the tenth of the caustic with the largest reference gradient); SSIM on sRGB luminance over the whole image.", regions.diffuse.len(), regions.caustic.len(), regions.contour.len());
     println!("Reference noise (relative, from its two halves): floor {:.4}, caustic {:.4}, contour {:.4}.\n",
         reference.relative_noise(&regions.diffuse), reference.relative_noise(&regions.caustic), reference.relative_noise(&regions.contour));
+    let noise = [&regions.diffuse, &regions.caustic, &regions.contour]
+        .map(|px| reference.relative_noise(px));
+    let mut resolution = common::Resolution::default();
     let mut table_rows = Vec::new();
     let mut points = Vec::new();
     for (k, (method, thesis)) in rows.iter().enumerate() {
@@ -132,7 +135,13 @@ fn main() -> Result<(), String> {
             format!("{:.2}", t / base).into(),
             thesis.into(),
         ];
-        row.extend(errors.iter().map(|e| format!("{e:.4}").into()));
+        row.extend(
+            errors[..3]
+                .iter()
+                .zip(noise)
+                .map(|(&e, n)| resolution.cell(e, n, 4, false).into()),
+        );
+        row.push(format!("{:.4}", errors[3]).into());
         table_rows.push(row);
         points.push(Point {
             label: method.label(),
@@ -142,6 +151,8 @@ fn main() -> Result<(), String> {
     }
 
     // The run as a report page.
+    let unresolved =
+        resolution.note("PHOTONDIFF_REFERENCE_PATHS, PHOTONDIFF_REFERENCE_LIGHT_PATHS");
     let table = Table {
         title: "Timing table".into(),
         columns: ["method", "rendering time (s)", "ratio to regular 1x1", "thesis ratio", "relRMSE floor", "relRMSE caustic", "relRMSE contour", "SSIM"]
@@ -150,9 +161,15 @@ fn main() -> Result<(), String> {
         notes: vec![format!(
             "Canonical scene, {} global + {} caustic photons; rendering time: median of {repeats}, methods alternated, {} threads; reference: {light_paths} + {paths} caustic light paths.",
             options.global_photons, options.caustic_photons, pool.current_num_threads()
-        )],
+        ), unresolved.clone()]
+        .into_iter()
+        .filter(|n| !n.is_empty())
+        .collect(),
     };
     print!("{}", table.markdown());
+    if resolution.any() {
+        println!("\n{unresolved}");
+    }
     let page = report::write_with_tables(
         &Report {
             title: "Timing table: canonical scene".into(),

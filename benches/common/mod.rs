@@ -132,3 +132,52 @@ pub fn scene_with_reference(
     )?;
     Ok((scene, embree, reference))
 }
+
+/// Errors against a reference as a table shows them. The README's rule: the reference's own
+/// noise (from its halves) is at most a third of any error quoted against it. A cell whose
+/// error is under three times that noise is marked `~` (the reference cannot resolve it), and
+/// [`Resolution::note`] says how many were and what to do. Before stop 56 only the
+/// convergence bench marked them: a smaller reference's unresolved figures read like the
+/// published ones.
+#[derive(Default)]
+pub struct Resolution {
+    marked: usize,
+    cells: usize,
+}
+
+impl Resolution {
+    /// `error` with `digits` decimals (as a percentage where `percent`), `~` first where it is
+    /// under three times `noise`, the reference's relative noise over the same pixels.
+    pub fn cell(&mut self, error: f64, noise: f64, digits: usize, percent: bool) -> String {
+        self.cells += 1;
+        let unresolved = error < 3.0 * noise;
+        self.marked += usize::from(unresolved);
+        let mark = if unresolved { "~" } else { "" };
+        if percent {
+            format!("{mark}{:.digits$}%", 100.0 * error)
+        } else {
+            format!("{mark}{error:.digits$}")
+        }
+    }
+
+    /// Whether any cell was marked.
+    pub fn any(&self) -> bool {
+        self.marked > 0
+    }
+
+    /// The table's note: what `~` means, how many cells carry it ("" when none does) and the
+    /// bench's `settings` that make its reference larger. Also said on standard error, where a
+    /// long run's reader looks first.
+    pub fn note(&self, settings: &str) -> String {
+        if self.marked == 0 {
+            return String::new();
+        }
+        let text = format!(
+            "`~`: {} of {} errors are under three times the reference's noise over the same \
+             pixels, which cannot resolve them; a larger reference ({settings}) can.",
+            self.marked, self.cells
+        );
+        eprintln!("warning: {text}");
+        text
+    }
+}
