@@ -77,3 +77,26 @@ fn every_commands_options_are_in_the_readme() {
     // render alone has more than thirty options: the help was read, not an empty text.
     assert!(checked > 60, "{checked} options checked");
 }
+
+/// Every estimator the command line takes is described in the README's `--estimator` row (as
+/// code, `` `name` ``): clap lists a new one in `--help` by itself, the README does not.
+#[test]
+fn every_estimator_is_in_the_readmes_estimator_row() {
+    use clap::ValueEnum;
+    let readme =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let row = readme
+        .lines()
+        .find(|l| l.starts_with("| `--estimator E` |"))
+        .expect("README has the render options' --estimator row");
+    let mut names = Vec::new();
+    for kind in photondiff::estimate::EstimatorKind::value_variants() {
+        let name = kind.to_possible_value().unwrap().get_name().to_string();
+        assert!(
+            row.contains(&format!("`{name}`")),
+            "`{name}` is not described in README's --estimator row"
+        );
+        names.push(name);
+    }
+    assert!(names.len() >= 7, "{names:?}");
+}

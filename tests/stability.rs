@@ -4,6 +4,7 @@
 //! reference's; guards counted where footprints degenerate.
 
 use photondiff::embree::Device;
+use photondiff::estimate::EstimatorKind;
 use photondiff::photons::footprint::Guards;
 use photondiff::photons::map::{PathClass, PhotonMap};
 use photondiff::photons::options::PhotonOptions;
@@ -79,13 +80,8 @@ fn check_with(
         .unwrap();
     let direct_energy = energy_error(&direct, &reference.film, lit);
     eprintln!("{name}: without photon light {direct_energy:+.4}");
-    for method in [
-        Method::jensen(1),
-        Method::regular(1),
-        Method::coplanar(),
-        Method::multisampled(4),
-        Method::integrated(),
-    ] {
+    // Every estimate over photon maps, unnamed: a new one is held to the same promises.
+    for method in EstimatorKind::over_maps().map(Method::of) {
         let (film, _) = method.render(scene, &embree, &maps, &options, 0).unwrap();
         let bad = bad_pixels(&film, bound);
         assert_eq!(
@@ -96,7 +92,7 @@ fn check_with(
         );
         let energy = energy_error(&film, &reference.film, lit);
         eprintln!("{name}, {}: energy {energy:+.4}", method.label());
-        let tolerance = if method.label().starts_with("Coplanar") {
+        let tolerance = if method.kind == EstimatorKind::Coplanar {
             coplanar_tolerance
         } else {
             ENERGY_TOLERANCE

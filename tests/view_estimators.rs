@@ -7,8 +7,8 @@ use photondiff::embree::{Device, Ray};
 use photondiff::estimate::coplanar::CoplanarEstimate;
 use photondiff::estimate::multisampled::MultiSampledEstimate;
 use photondiff::estimate::{
-    photon_kernel, ExactFootprint, GatherCounts, GatherQuery, IntegratedEstimate,
-    PhotonDifferentialEstimate, RadianceEstimator,
+    photon_kernel, ExactFootprint, GatherCounts, GatherQuery, PhotonDifferentialEstimate,
+    RadianceEstimator,
 };
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::geometry::polygon::{area_centroid, convex_hull, intersect_convex};
@@ -230,14 +230,8 @@ fn no_estimator_produces_nan_infinite_or_negative_radiance() {
     let mut stats = Stats::default();
     let options = PhotonOptions::default();
     let maps = trace_photon_maps(&scene, &embree, &options, 0, false, &mut stats).unwrap();
-    for kind in [
-        EstimatorKind::Direct,
-        EstimatorKind::Jensen,
-        EstimatorKind::Pd,
-        EstimatorKind::Coplanar,
-        EstimatorKind::Multisampled,
-        EstimatorKind::Integrated,
-    ] {
+    // Every estimate the command line takes, unnamed: a new one is in the test.
+    for kind in std::iter::once(EstimatorKind::Direct).chain(EstimatorKind::over_maps()) {
         let settings = EstimatorSettings::new(kind, options.limits(&scene).max_radius);
         let estimators = maps.estimators(&settings);
         let refs: Vec<&dyn RadianceEstimator> = estimators.iter().map(|e| e.as_ref()).collect();
@@ -355,18 +349,15 @@ fn a_batch_of_gathers_answers_as_the_gathers_one_by_one() {
         exact += usize::from(q.exact.is_some());
     }
     assert!(exact > 50, "{exact} exact footprints");
-    let estimators: Vec<(&str, Box<dyn RadianceEstimator + '_>)> = vec![
-        ("pd", Box::new(PhotonDifferentialEstimate { map: &map })),
-        ("multisampled", Box::new(MultiSampledEstimate::new(&map, 8))),
-        (
-            "coplanar",
-            Box::new(CoplanarEstimate {
-                map: &map,
-                ellipse_vertices: 16,
-            }),
-        ),
-        ("integrated", Box::new(IntegratedEstimate { map: &map })),
-    ];
+    // Every estimate over photon maps, with its defaults, unnamed: a new one is in the test.
+    let estimators: Vec<(EstimatorKind, Box<dyn RadianceEstimator + '_>)> =
+        EstimatorKind::over_maps()
+            .filter_map(|kind| {
+                let settings = EstimatorSettings::new(kind, f64::from(map.max_radius));
+                Some((kind, settings.estimator_over(&map)?))
+            })
+            .collect();
+    assert!(estimators.len() >= 5);
     let shares = vec![1.0; queries.len()];
     for (name, estimator) in &estimators {
         let (mut one, mut all) = (GatherCounts::default(), GatherCounts::default());
@@ -376,13 +367,16 @@ fn a_batch_of_gathers_answers_as_the_gathers_one_by_one() {
             .collect();
         let mut batch = vec![DVec3::NAN; queries.len()];
         estimator.radiance_batch(&queries, &shares, &mut batch, &mut all);
-        assert_eq!(batch, single, "{name}");
-        assert_eq!(all, one, "{name}");
+        assert_eq!(batch, single, "{name:?}");
+        assert_eq!(all, one, "{name:?}");
         let lit = single.iter().filter(|l| l.max_element() > 0.0).count();
-        assert!(lit > 20 && lit < queries.len(), "{name}: {lit} lit");
+        // Some queries lie beyond every photon's footprint; `jensen`'s nearest photons,
+        // within its largest radius, reach them all.
+        let beyond = lit < queries.len() || *name == EstimatorKind::Jensen;
+        assert!(lit > 20 && beyond, "{name:?}: {lit} lit");
         // `pd` reads the kernel from the photons' filter-space records: it answers what the
         // kernel summed over every photon of the map (in map order, as found) answers.
-        if *name == "pd" {
+        if *name == EstimatorKind::Pd {
             for (q, &answer) in queries.iter().zip(&single) {
                 let (x, n) = (q.position.as_vec3(), q.normal.as_vec3());
                 let sum: Vec3 = map

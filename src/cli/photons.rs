@@ -2,7 +2,6 @@
 //! `render --photon-maps` reads (format: `photondiff::photons::file`).
 
 use super::create_parent;
-use super::render::estimator_name;
 use super::render::reads::{reads_id, Run};
 use photondiff::estimate::EstimatorKind;
 use photondiff::photons::file;
@@ -56,10 +55,10 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     outputs.extend(args.stats_json.as_deref().map(|p| ("--stats-json", p)));
     outputs.extend(args.trace.as_deref().map(|p| ("--trace", p)));
     super::check_outputs(&outputs, &[("scene", &args.scene)])?;
-    if !super::render::reads::has_maps(args.estimator) {
+    if !args.estimator.reads_maps() {
         return Err(format!(
             "--estimator {} uses no photon maps",
-            estimator_name(args.estimator)
+            args.estimator.name()
         ));
     }
     let defaults = RenderDefaults::for_estimator(args.estimator);
@@ -75,7 +74,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
         passes_given: false,
     };
     if !reads_id(&render, "overlap") && options.overlap != PhotonOptions::default().overlap {
-        let name = estimator_name(args.estimator);
+        let name = args.estimator.name();
         return Err(format!(
             "--overlap does not apply to --estimator {name} without --probe-walls (its k \
              nearest photons have no footprints, and a {name} render could not read these maps)"

@@ -225,7 +225,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             "photondiff: warning: --target-noise measures the noise between passes, not the \
              bias: --estimator {} does not converge to the reference with passes (README, \
              \"What passes do not mend\"); --estimator integrated does",
-            estimator_name(kind)
+            kind.name()
         );
     }
     let (exr, png) = output_paths(args);
@@ -312,7 +312,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         )
         .with_progress(!args.quiet)
         .with_window(window);
-    if reads::has_maps(kind) {
+    if kind.reads_maps() {
         super::warn_photon_memory(
             &args.scene,
             photon_options.global_photons + photon_options.caustic_photons,
@@ -511,13 +511,6 @@ fn light_trace(
     stats.light_rays = result.rays;
     stats.reference_noise = result.relative_noise(&result.film.lit_pixels());
     Ok(result.film)
-}
-
-/// An estimator's name as `--estimator` takes it.
-pub(super) fn estimator_name(kind: EstimatorKind) -> String {
-    use clap::ValueEnum;
-    kind.to_possible_value()
-        .map_or_else(|| format!("{kind:?}"), |v| v.get_name().to_string())
 }
 
 /// The estimator asked for, `integrated` by default.

@@ -5,6 +5,17 @@
 //! [`coplanar`], [`multisampled`] and [`integrated`] (photon differentials with the view
 //! footprint); [`final_gather`] reads indirect light through gather rays instead of the global
 //! map. [`select`] turns the command line's choice into estimators over the photon maps.
+//!
+//! Adding an estimator: its file here (a type implementing [`RadianceEstimator`]) and its
+//! `pub mod` line; its variant of [`EstimatorKind`] (clap lists it in `--help` from the doc
+//! comment) and its arm in [`EstimatorSettings::estimator_over`]; its label in
+//! `reference::experiment::Method::label`; its line in README's `--estimator` row
+//! (`tests/cli_docs.rs` checks). The compiler finds the two match arms. The tests that mean
+//! every estimator loop over [`EstimatorKind::over_maps`] and take it unnamed: power conserved
+//! (`tests/every_estimator.rs`), no NaN or negative pixel and a packet answered as its gathers
+//! one by one (`tests/view_estimators.rs`), random scenes (`tests/fuzz.rs`), the stress scenes
+//! against a reference (`tests/stability.rs`), any unit of length (`tests/photon_maps.rs`).
+//! Benchmarks name their rows: the timing table's are the thesis's.
 
 pub mod coplanar;
 pub mod exact_footprint;

@@ -7,6 +7,7 @@ use super::{
     PhotonDifferentialEstimate, RadianceEstimator,
 };
 use crate::embree;
+use crate::photons::map::PhotonMap;
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
 
@@ -30,6 +31,31 @@ pub enum EstimatorKind {
     Integrated,
     /// Not a photon map estimate: the light-tracing reference (`reference::light_tracer`).
     Lighttrace,
+}
+
+impl EstimatorKind {
+    /// The estimate's name as the command line takes it (`--estimator NAME`), and as images
+    /// and messages give it.
+    pub fn name(self) -> String {
+        use clap::ValueEnum;
+        self.to_possible_value()
+            .map_or_else(|| format!("{self:?}"), |v| v.get_name().to_string())
+    }
+
+    /// Whether this estimate reads photon maps (every kind but `direct` and `lighttrace`).
+    pub fn reads_maps(self) -> bool {
+        !matches!(self, EstimatorKind::Direct | EstimatorKind::Lighttrace)
+    }
+
+    /// The estimates over photon maps, in the command line's order: what tests and benchmarks
+    /// loop over when they mean every estimator, so that a new one is in them without being
+    /// named there.
+    pub fn over_maps() -> impl Iterator<Item = EstimatorKind> {
+        <Self as clap::ValueEnum>::value_variants()
+            .iter()
+            .copied()
+            .filter(|k| k.reads_maps())
+    }
 }
 
 /// How the photon maps are estimated.
@@ -134,25 +160,32 @@ impl PhotonMaps {
     pub fn estimators(&self, settings: &EstimatorSettings) -> Vec<Box<dyn RadianceEstimator + '_>> {
         [&self.caustic, &self.global]
             .into_iter()
-            .filter_map(|map| -> Option<Box<dyn RadianceEstimator>> {
-                Some(match settings.kind {
-                    EstimatorKind::Direct | EstimatorKind::Lighttrace => return None,
-                    EstimatorKind::Jensen => Box::new(JensenEstimate {
-                        map,
-                        k: settings.k,
-                        max_radius: settings.max_radius,
-                    }),
-                    EstimatorKind::Pd => Box::new(PhotonDifferentialEstimate { map }),
-                    EstimatorKind::Coplanar => Box::new(CoplanarEstimate {
-                        map,
-                        ellipse_vertices: settings.ellipse_vertices,
-                    }),
-                    EstimatorKind::Integrated => Box::new(IntegratedEstimate { map }),
-                    EstimatorKind::Multisampled => {
-                        Box::new(MultiSampledEstimate::new(map, settings.ms_grid))
-                    }
-                })
-            })
+            .filter_map(|map| settings.estimator_over(map))
             .collect()
+    }
+}
+
+impl EstimatorSettings {
+    /// The estimate over one photon map (`None` for a kind that reads none). The one place
+    /// where an estimator kind becomes its estimator.
+    pub fn estimator_over<'a>(
+        &self,
+        map: &'a PhotonMap,
+    ) -> Option<Box<dyn RadianceEstimator + 'a>> {
+        Some(match self.kind {
+            EstimatorKind::Direct | EstimatorKind::Lighttrace => return None,
+            EstimatorKind::Jensen => Box::new(JensenEstimate {
+                map,
+                k: self.k,
+                max_radius: self.max_radius,
+            }),
+            EstimatorKind::Pd => Box::new(PhotonDifferentialEstimate { map }),
+            EstimatorKind::Coplanar => Box::new(CoplanarEstimate {
+                map,
+                ellipse_vertices: self.ellipse_vertices,
+            }),
+            EstimatorKind::Integrated => Box::new(IntegratedEstimate { map }),
+            EstimatorKind::Multisampled => Box::new(MultiSampledEstimate::new(map, self.ms_grid)),
+        })
     }
 }

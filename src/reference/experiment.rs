@@ -33,6 +33,22 @@ pub struct Method {
 }
 
 impl Method {
+    /// Estimate `kind` with one camera ray per pixel and its defaults (`multisampled` on its
+    /// default grid): what tests and benchmarks take when they mean every estimator
+    /// ([`EstimatorKind::over_maps`]).
+    pub fn of(kind: EstimatorKind) -> Self {
+        Method {
+            kind,
+            view_grid: 1,
+            ms_grid: match kind {
+                EstimatorKind::Multisampled => EstimatorSettings::DEFAULT_MS_GRID,
+                _ => 1,
+            },
+            passes: 1,
+            defaults: None,
+        }
+    }
+
     /// Regular (photon differentials) with `n x n` camera rays per pixel.
     pub fn regular(n: u32) -> Self {
         Method {

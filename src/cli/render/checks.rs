@@ -126,7 +126,7 @@ pub(super) fn options(
     run: &Run,
     pass_range: Option<&Range<u64>>,
 ) -> Result<(), String> {
-    if args.gather_rays > 0 && super::reads::has_maps(run.kind) && args.photon_maps.is_some() {
+    if args.gather_rays > 0 && run.kind.reads_maps() && args.photon_maps.is_some() {
         return Err(
             "--gather-rays cannot read --photon-maps: final gathering traces its own radiance map"
                 .into(),

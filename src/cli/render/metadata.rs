@@ -28,7 +28,7 @@ pub(super) fn exr_metadata(
         ("view_grid", args.view_grid.to_string()),
         // The grid an edge pixel was rendered on: an edge grid no finer than the view grid is off.
         ("edge_grid", options.edge_grid_used().to_string()),
-        ("estimator", format!("{:?}", run.kind).to_lowercase()),
+        ("estimator", run.kind.name()),
         ("photons", photons.global_photons.to_string()),
         ("caustic_photons", photons.caustic_photons.to_string()),
         ("k", settings.k.to_string()),

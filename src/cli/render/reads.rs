@@ -2,7 +2,7 @@
 //! given where nothing reads it is refused) and [`super::metadata`] (an image's attributes
 //! name the settings its estimator read, no more) both ask, so that the two cannot disagree.
 
-use super::{estimator_name, RenderArgs};
+use super::RenderArgs;
 use photondiff::estimate::EstimatorKind;
 use photondiff::render::defaults::RenderDefaults;
 
@@ -174,7 +174,7 @@ const SETTINGS: &[Setting] = &[
 impl Reader {
     fn reads(self, run: &Run) -> bool {
         use EstimatorKind::*;
-        let maps = has_maps(run.kind);
+        let maps = run.kind.reads_maps();
         let footprints = maps && (run.kind != Jensen || run.gather_rays > 0 || run.probe_walls);
         match self {
             Reader::PhotonMaps => maps,
@@ -191,12 +191,12 @@ impl Reader {
 
     /// Why `option` does nothing in `run`.
     fn refusal(self, option: &str, run: &Run) -> String {
-        let name = estimator_name(run.kind);
+        let name = run.kind.name();
         let of_maps = !matches!(
             self,
             Reader::Estimator(_) | Reader::CameraRays | Reader::LightTracer
         );
-        if of_maps && !has_maps(run.kind) {
+        if of_maps && !run.kind.reads_maps() {
             return format!(
                 "{option} does not apply to --estimator {name} (it uses no photon maps)"
             );
@@ -225,10 +225,7 @@ impl Reader {
                 format!("{option} applies with --gather-rays only (final gathering)")
             }
             Reader::Estimator(owner) => {
-                format!(
-                    "{option} applies to --estimator {} only",
-                    estimator_name(owner)
-                )
+                format!("{option} applies to --estimator {} only", owner.name())
             }
             Reader::CameraRays => format!(
                 "{option} does not apply to --estimator lighttrace (its paths reach the camera \
@@ -240,11 +237,6 @@ impl Reader {
             }
         }
     }
-}
-
-/// Whether estimator `kind` uses photon maps.
-pub(crate) fn has_maps(kind: EstimatorKind) -> bool {
-    !matches!(kind, EstimatorKind::Direct | EstimatorKind::Lighttrace)
 }
 
 /// The first setting among `given` (clap's ids of the options given on the command line) that
@@ -352,15 +344,8 @@ mod tests {
                  --passes, --time-budget or --target-noise for more"
             )
         );
-        for kind in [
-            Direct,
-            Lighttrace,
-            Pd,
-            Jensen,
-            Multisampled,
-            Coplanar,
-            Integrated,
-        ] {
+        // Every kind the command line takes: a new one is checked without being named here.
+        for &kind in <EstimatorKind as clap::ValueEnum>::value_variants() {
             for gather_rays in [0, 8] {
                 for s in SETTINGS.iter().filter(|s| s.attribute.is_some()) {
                     assert_eq!(
