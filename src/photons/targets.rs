@@ -34,7 +34,7 @@ pub fn cone_solid_angle(cos_max: f64) -> f64 {
 }
 
 /// The bounding sphere of every specular mesh of `scene`, in the scene's mesh order (beyond
-/// [`MAX_TARGETS`] of them, spheres around groups of them, [`grouped`]). An instance's sphere
+/// [`MAX_TARGETS`] of them, spheres around groups of them, `grouped`). An instance's sphere
 /// is its mesh's sphere, moved and grown by the transform's largest stretch; each mesh's
 /// positions are read once.
 pub fn specular_targets(scene: &Scene) -> Vec<Target> {

@@ -296,11 +296,11 @@ fn copy_window(part: &Film, window: Window, film: &mut Film) {
 /// then the seconds of all processes together, not wall-clock time); the light tracer's noise
 /// from the first part; the photon maps' figures from the first part where the parts are
 /// tiles (each traced the same maps), summed over the pass ranges of one tile where they are
-/// pass ranges (each traced its own passes' maps, every tile the same: [`merge_range_maps`];
+/// pass ranges (each traced its own passes' maps, every tile the same: `merge_range_maps`;
 /// the first part's alone said 20,000 or 40,000 caustic photons of a 60,000-photon render, by
 /// the order the parts were named, and summed over two tiles' ranges 120,000); the scene's
-/// memory and mesh repairs as [`merge_memory`] says; the progressive report as
-/// [`merge_progressive`] says.
+/// memory and mesh repairs as `merge_memory` says; the progressive report as
+/// `merge_progressive` says.
 pub fn merge_stats(parts: &[Part]) -> Result<Value, String> {
     let mut total: Option<Value> = None;
     let mut reports = Vec::new();

@@ -408,7 +408,7 @@ impl Scene {
             .max(5e-7 * largest_coordinate)
     }
 
-    /// The diagonal of the scene's bounding box ([`size_or_default`]), to scale ray offsets and
+    /// The diagonal of the scene's bounding box (`size_or_default`), to scale ray offsets and
     /// the photons' footprint limits.
     pub fn extent(&self) -> f64 {
         let [lo, hi] = bounds(self.mesh_bounds().into_iter().flatten());

@@ -11,7 +11,7 @@ pub fn write(text: std::fmt::Arguments) {
     let _ = std::io::stderr().write_fmt(text);
 }
 
-/// `eprintln!` that drops what cannot be written instead of panicking ([`write`]).
+/// `eprintln!` that drops what cannot be written instead of panicking ([`write()`]).
 #[macro_export]
 macro_rules! stderr_line {
     ($($arg:tt)*) => {
@@ -19,7 +19,7 @@ macro_rules! stderr_line {
     };
 }
 
-/// `eprint!` that drops what cannot be written instead of panicking ([`write`]).
+/// `eprint!` that drops what cannot be written instead of panicking ([`write()`]).
 #[macro_export]
 macro_rules! stderr_text {
     ($($arg:tt)*) => {
