@@ -284,7 +284,7 @@ fn unrenderable_eyes_lights_and_intensities_are_refused() {
         ),
         (
             ("width = 32\nheight = 24", "width = 32768\nheight = 32768"),
-            "camera: width x height must be at most 134217728 pixels (about 150 bytes each in memory), got 32768 x 32768 = 1073741824",
+            "camera: width x height must be at most 134217728 pixels (20 GB to render), got 32768 x 32768 = 1073741824",
         ),
         (
             ("intensity = [10.0, 10.0, 10.0]", "intensity = [10.0, 1e300, 10.0]"),
@@ -556,7 +556,10 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
 }
 
 /// An image whose pixels cannot fit in the memory the process may use is refused before
-/// anything is allocated: at the 2^27-pixel limit a render under a 6 GB limit aborted.
+/// anything is allocated: at the 2^27-pixel limit a render under a 6 GB limit aborted. The
+/// refusal is the render's, not the scene file's: a tile of it that fits renders, and
+/// `photons`, which holds no image, runs (both were refused when the scene was read, until
+/// stop 56).
 #[test]
 fn an_image_beyond_the_process_memory_is_refused_at_once() {
     let exe = env!("CARGO_BIN_EXE_photondiff");
@@ -566,24 +569,59 @@ fn an_image_beyond_the_process_memory_is_refused_at_once() {
         .replace("width = 32", "width = 11585")
         .replace("height = 24", "height = 11585");
     std::fs::write(&scene, format!("{camera}{REST}")).unwrap();
-    let out = Command::new("sh")
-        .arg("-c")
-        .arg(format!(
-            "ulimit -v 3000000; exec '{exe}' render '{}' -o '{}' --estimator direct",
+    let run = |args: &str| {
+        Command::new("sh")
+            .arg("-c")
+            .arg(format!("ulimit -v 3000000; exec '{exe}' {args}",))
+            .output()
+            .unwrap()
+    };
+    let render = |extra: &str| {
+        run(&format!(
+            "render '{}' -o '{}' --estimator direct {extra}",
             scene.display(),
             dir.path().join("x.exr").display()
         ))
-        .output()
-        .unwrap();
-    assert_eq!(
-        String::from_utf8_lossy(&out.stderr),
-        format!(
-            "photondiff: error: {}: camera: 11585 x 11585 pixels need about 20.1 GB to render \
-             (about 150 bytes each), more than the 3.1 GB this process may use\n",
+    };
+    let out = render("");
+    // (After the warning of a scene without shapes.)
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.ends_with(&format!(
+            "\nphotondiff: error: {}: camera: 11585 x 11585 pixels need about 20.1 GB to \
+             render (about 150 bytes each), more than the 3.1 GB this process may use\n",
             scene.display()
-        )
+        )),
+        "{stderr}"
     );
     assert_eq!(out.status.code(), Some(1));
+    // A quarter does not fit either (5.0 GB), ...
+    let out = render("-q --tile 0/4");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.ends_with(
+            "\nphotondiff: error: --tile: its 33550160 pixels need about 5.0 GB to render \
+             (about 150 bytes each), more than the 3.1 GB this process may use\n"
+        ),
+        "{stderr}"
+    );
+    // ... a sixteenth does (1.3 GB).
+    let out = render("-q --tile 0/16 --footprint-shadow-rays 1");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = run(&format!(
+        "photons '{}' -o '{}' -q --threads 1 --photons 1000 --caustic-photons 0",
+        scene.display(),
+        dir.path().join("maps.pdm").display()
+    ));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// A pass-range part holds its exact sums beside the film, more than twice a whole render's

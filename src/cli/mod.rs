@@ -126,8 +126,6 @@ pub fn check_threads(threads: usize) -> Result<usize, String> {
 /// The most photons one map takes: photon indices are 32-bit.
 pub const MAX_PHOTONS: usize = 1 << 31;
 
-/// Parses a photon count (`--photons`, `--caustic-photons`): a whole number up to
-/// [`MAX_PHOTONS`].
 /// A whole number of 0 or more, for `--seed` and `--threads` (clap said "invalid digit found
 /// in string" of `-1`).
 pub fn whole<T: std::str::FromStr>(text: &str) -> Result<T, String> {
@@ -136,6 +134,8 @@ pub fn whole<T: std::str::FromStr>(text: &str) -> Result<T, String> {
         .map_err(|_| format!("expected a whole number from 0 to 2^64 - 1, got {text}"))
 }
 
+/// Parses a photon count (`--photons`, `--caustic-photons`): a whole number up to
+/// [`MAX_PHOTONS`].
 pub fn photon_count(text: &str) -> Result<usize, String> {
     let n: usize = text
         .trim()

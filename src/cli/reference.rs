@@ -369,6 +369,15 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
     let (scene, hash) = stats.time("load scene", || {
         super::load_scene(&args.scene, !args.quiet, &outputs)
     })?;
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    photondiff::render::film::check_image_memory(
+        &format!(
+            "{}: camera: {width} x {height} pixels",
+            args.scene.display()
+        ),
+        u64::from(width) * u64::from(height),
+        photondiff::render::film::PEAK_BYTES_PER_PIXEL,
+    )?;
     let mark = photondiff::util::memory::ResidentMark::now();
     let (device, embree, bvh) = stats.time("build BVH", || {
         args.bvh

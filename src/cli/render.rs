@@ -7,7 +7,7 @@ use photondiff::photons::map::PathClass;
 use photondiff::photons::options::PhotonOptions;
 use photondiff::reference::light_tracer::{LightTraceOptions, LightTracer, MAX_PATHS};
 use photondiff::render::defaults::RenderDefaults;
-use photondiff::render::film::Film;
+use photondiff::render::film::{self, Film};
 use photondiff::render::pass_part::write_pass_part;
 use photondiff::render::passes::{pass_photons, StopReason, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
 use photondiff::render::stats::{MemoryStats, Stats};
@@ -281,9 +281,21 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         Some(tile) => Some(tile.window(width, height)?),
         None => None,
     };
+    // The part this run renders, before anything is allocated for it: a tile of an image too
+    // large for this machine's memory may fit.
+    let w = window.unwrap_or(Window::full(width, height));
+    let part_pixels = u64::from(w.x1 - w.x0) * u64::from(w.y1 - w.y0);
     if pass_range.is_some() {
-        let w = window.unwrap_or(Window::full(width, height));
-        check_part_memory(u64::from(w.x1 - w.x0) * u64::from(w.y1 - w.y0))?;
+        check_part_memory(part_pixels)?;
+    } else {
+        let what = match &tile {
+            Some(_) => format!("--tile: its {part_pixels} pixels"),
+            None => format!(
+                "{}: camera: {width} x {height} pixels",
+                args.scene.display()
+            ),
+        };
+        film::check_image_memory(&what, part_pixels, film::PEAK_BYTES_PER_PIXEL)?;
     }
     // Once per mesh, whatever --quiet says: the scene is not quite what its files say.
     for warning in scene.warnings() {
@@ -454,7 +466,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
 /// Peak bytes a pixel of a pass-range part: its exact sums (fixed point, floating point and
 /// squares: 96 bytes) are held beside the film and written as 24 channels of 32 bits. Measured:
 /// 327 bytes (4096 x 3072, passes 0..1 of 2) and 378 (passes 0..2 of 3), where the scene's
-/// check assumes 150 for a whole render ([`photondiff::scene::file::PEAK_BYTES_PER_PIXEL`]): a
+/// check assumes 150 for a whole render ([`photondiff::render::film::PEAK_BYTES_PER_PIXEL`]): a
 /// part under a 3 GB limit was let through and aborted 21 s later.
 const PART_PEAK_BYTES_PER_PIXEL: u64 = 400;
 

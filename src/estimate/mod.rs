@@ -172,14 +172,10 @@ pub fn photon_kernel(p: &Photon, v: Vec3, n_x: Vec3) -> Option<Vec3> {
 }
 
 /// `Phi / A K(r)` for a photon of flux `p` at squared filter-space distance `r2 = |M v|^2`
-/// (Epanechnikov, `K = (2/pi)(1 - r^2)`), or `None` outside its support: the one spelling of the
-/// kernel every photon-differential estimate evaluates.
+/// (Epanechnikov, `K = (2/pi)(1 - r^2)`), or `None` outside its support: the one scalar spelling
+/// of the kernel (`pd` and `coplanar` evaluate it; `multisampled`'s and `integrated`'s SIMD
+/// lanes write it in their own batches).
 #[inline(always)]
 pub fn kernel(p: &Flux, r2: f32) -> Option<Vec3> {
     (r2 < 1.0).then(|| p.power * (p.inv_area * std::f32::consts::FRAC_2_PI * (1.0 - r2)))
-}
-
-/// The circumradius of the parallelogram `+- f0/2 +- f1/2`.
-pub fn footprint_circumradius(f: &[DVec3; 2]) -> f64 {
-    0.5 * (f[0] + f[1]).length().max((f[0] - f[1]).length())
 }

@@ -14,8 +14,9 @@ thread_local! {
     static SEARCH: RefCell<PacketSearch<InFilterSpace>> = RefCell::new(PacketSearch::default());
 }
 
-/// The photon-differential estimate (Schjoth et al.): every photon within the map's largest
-/// footprint radius, each kernel evaluated in its own filter space,
+/// The photon-differential estimate (Schjoth et al.): every photon whose footprint holds the
+/// point (the map's footprint BVH finds them, a packet of points at a time), each kernel
+/// evaluated in its own filter space,
 /// `sum f_r Phi_p / A_p K(|M_p (x - x_p)|)`, Epanechnikov over the unit disc, so that each
 /// photon contributes exactly its power when integrated over the surface.
 pub struct PhotonDifferentialEstimate<'a> {

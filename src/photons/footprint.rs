@@ -125,16 +125,6 @@ pub fn footprint(
     }
 }
 
-/// The Epanechnikov kernel normalised over the unit disc: `(2 / pi)(1 - r^2)` for `r^2 < 1`.
-#[inline]
-pub fn epanechnikov(r2: f64) -> f64 {
-    if r2 < 1.0 {
-        std::f64::consts::FRAC_2_PI * (1.0 - r2)
-    } else {
-        0.0
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -119,7 +119,8 @@ fn empty_so_far(class: PathClass, cap: u64, stored: u64, emitted: u64) -> bool {
 /// more per emission; an open scene stores few (the canonical scene about 1 in 1,700: its
 /// 100,000 photons would take 170 million emissions) and ends at this cap with fewer photons
 /// than asked for, which the statistics and the command line report. It keeps the default
-/// render of an open scene fast: 400,000 emissions for the default 100,000 photons.
+/// render of an open scene fast: 200,000 emissions for the default render's 50,000 global
+/// photons, 400,000 for the other estimators' default of 100,000.
 pub const GLOBAL_EMISSIONS_PER_PHOTON: u64 = 4;
 
 /// When a map is complete.

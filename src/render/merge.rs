@@ -1,9 +1,11 @@
-//! Joining the parts of a split render (`--tile I/N`) into the whole image.
+//! Joining the parts of a split render (`--tile I/N` tiles, `--pass-range A..B` pass ranges, or
+//! both) into the whole image, and their statistics into the whole run's.
 //!
-//! Pixels are copied, not recomputed, so the whole is bit-identical to a render in one process.
-//! Every check runs before anything is produced: parts must come from the same scene (content
-//! hash) and the same settings (every `photondiff/...` attribute but those describing one
-//! process: [`PER_PART`]), must not overlap, and must cover the image; every missing tile is
+//! Tiles' pixels are copied, not recomputed, and pass ranges' exact sums added, so the whole is
+//! bit-identical to a render in one process. Every check runs before anything is produced:
+//! parts must come from the same scene (content hash) and the same settings (every
+//! `photondiff/...` attribute but those describing one process: [`PER_PART`]), must not
+//! overlap, and must cover the image and the passes; every missing tile and pass range is
 //! named.
 
 use super::film::Film;

@@ -115,11 +115,6 @@ pub const MAX_IMAGE_SIDE: u32 = 32768;
 /// at once and the allocation aborted the process.
 pub const MAX_PIXELS: u64 = 1 << 27;
 
-/// What a render holds per pixel at its peak (the running sums, the film, the pass's image and
-/// its EXR and PNG): 3000 x 3000 peaked at 1.27 GB with `--estimator direct` and 1.36 GB with
-/// the default (stop 50; the README said 50 until then).
-pub const PEAK_BYTES_PER_PIXEL: u64 = 150;
-
 /// Reads and checks the scene file at `path`; mesh paths are relative to its folder.
 pub fn load_scene(path: &Path) -> Result<Scene, SceneError> {
     load_scene_reporting(path, |_, _| {})
@@ -380,26 +375,14 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
     let pixels = u64::from(c.width) * u64::from(c.height);
     if pixels > MAX_PIXELS {
         return Err(format!(
-            "camera: width x height must be at most {MAX_PIXELS} pixels (about \
-             {PEAK_BYTES_PER_PIXEL} bytes each in memory), got {} x {} = {pixels}",
+            "camera: width x height must be at most {MAX_PIXELS} pixels (20 GB to render), got \
+             {} x {} = {pixels}",
             c.width, c.height
         ));
     }
-    // Refused before anything is allocated: at the limit above a render aborted under a
-    // 6 GB limit ("memory allocation of 6442186800 bytes failed").
-    if let Some(total) = crate::util::memory::total_bytes() {
-        let need = pixels * PEAK_BYTES_PER_PIXEL;
-        if need > total {
-            return Err(format!(
-                "camera: {} x {} pixels need about {:.1} GB to render (about \
-                 {PEAK_BYTES_PER_PIXEL} bytes each), more than the {:.1} GB this process may use",
-                c.width,
-                c.height,
-                need as f64 / 1e9,
-                total as f64 / 1e9
-            ));
-        }
-    }
+    // Whether the image fits in this machine's memory is the commands' question, not the
+    // file's: `photons` and `info` hold no image, and a `--tile` part holds its tile only
+    // (`PEAK_BYTES_PER_PIXEL`'s checks are in `cli/render.rs` and `cli/reference.rs`).
     let eye = point("camera.eye", c.eye)?;
     let look_at = vec3("camera.look_at", c.look_at)?;
     let up = vec3("camera.up", c.up)?;

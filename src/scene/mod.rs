@@ -143,15 +143,6 @@ pub struct SceneMesh {
 }
 
 impl SceneMesh {
-    /// The mesh's vertex positions in world space.
-    pub fn world_positions(&self) -> impl Iterator<Item = DVec3> + '_ {
-        let to_world = self.transform.unwrap_or(DAffine3::IDENTITY);
-        self.mesh
-            .positions
-            .iter()
-            .map(move |p| to_world.transform_point3(DVec3::from(p.map(f64::from))))
-    }
-
     /// Its triangles' vertices in world space.
     pub fn world_triangles(&self) -> impl Iterator<Item = [DVec3; 3]> + '_ {
         let to_world = self.transform.unwrap_or(DAffine3::IDENTITY);

@@ -144,11 +144,3 @@ pub fn write(path: &Path) -> Result<(), String> {
         out.write_all(b"],\"displayTimeUnit\":\"ms\"}")
     })
 }
-
-/// Bytes the events recorded so far hold in memory (about what their file will take).
-pub fn recorded_bytes() -> usize {
-    match recorder().events.lock() {
-        Ok(events) => events.capacity(),
-        Err(poisoned) => poisoned.into_inner().capacity(),
-    }
-}
