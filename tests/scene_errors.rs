@@ -653,9 +653,9 @@ fn a_pass_range_part_beyond_the_process_memory_is_refused_at_once() {
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
         stderr.ends_with(
-            "\nphotondiff: error: --pass-range: 12582912 pixels need about 5.0 GB for a part's \
-             exact sums (about 400 bytes each), more than the 3.1 GB this process may use: split \
-             the image into tiles too (--tile)\n"
+            "\nphotondiff: error: --pass-range: 12582912 pixels (and a part's exact sums) need \
+             about 5.0 GB to render (about 400 bytes each), more than the 3.1 GB this process \
+             may use: split the image into tiles too (--tile)\n"
         ),
         "{stderr}"
     );

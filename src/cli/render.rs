@@ -473,17 +473,12 @@ const PART_PEAK_BYTES_PER_PIXEL: u64 = 400;
 /// Refuses a pass-range part of `pixels` pixels that needs more memory than this process may
 /// use, before any work.
 fn check_part_memory(pixels: u64) -> Result<(), String> {
-    let need = pixels.saturating_mul(PART_PEAK_BYTES_PER_PIXEL);
-    match photondiff::util::memory::total_bytes() {
-        Some(total) if need > total => Err(format!(
-            "--pass-range: {pixels} pixels need about {:.1} GB for a part's exact sums (about \
-             {PART_PEAK_BYTES_PER_PIXEL} bytes each), more than the {:.1} GB this process may \
-             use: split the image into tiles too (--tile)",
-            need as f64 / 1e9,
-            total as f64 / 1e9
-        )),
-        _ => Ok(()),
-    }
+    film::check_image_memory(
+        &format!("--pass-range: {pixels} pixels (and a part's exact sums)"),
+        pixels,
+        PART_PEAK_BYTES_PER_PIXEL,
+    )
+    .map_err(|e| format!("{e}: split the image into tiles too (--tile)"))
 }
 
 /// The image of `--estimator lighttrace`: the light-tracing reference's paths on the worker
