@@ -356,9 +356,8 @@ fn parallelogram(field: &str, corner: Vec3, u: Vec3, v: Vec3) -> Result<[DVec3; 
     Ok([c, u, v])
 }
 
-fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Scene, String> {
-    let mesh_bytes = MeshBytes::new(&file, base, progress);
-    let c = &file.camera;
+/// The `[camera]` table checked and made a camera.
+fn camera(c: &CameraDesc) -> Result<Camera, String> {
     let fov = number("camera.fov_y", c.fov_y)?;
     if !(fov > 0.0 && fov < 180.0) {
         return Err(format!(
@@ -398,8 +397,87 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
             c.look_at
         ));
     }
-    let camera = Camera::look_at(eye, look_at, up, fov, c.width, c.height)
-        .ok_or("camera.up: must not be zero or parallel to the view direction (look_at - eye)")?;
+    Camera::look_at(eye, look_at, up, fov, c.width, c.height).ok_or(
+        "camera.up: must not be zero or parallel to the view direction (look_at - eye)".into(),
+    )
+}
+
+/// Light `lights[i]` checked and made a light, with the emitter mesh a quad light is seen as.
+fn light(i: usize, l: &LightDesc) -> Result<(Light, Option<SceneMesh>), String> {
+    let field = format!("lights[{i}]");
+    let mut emitter = None;
+    let light = match *l {
+        LightDesc::Point(PointLight {
+            position,
+            intensity,
+        }) => Light::Point {
+            position: point(&format!("{field}.position"), position)?,
+            intensity: emission(&format!("{field}.intensity"), intensity)?,
+        },
+        LightDesc::Spot(SpotLight {
+            position,
+            direction,
+            intensity,
+            cone_angle,
+            falloff_start,
+        }) => {
+            let direction = vec3(&format!("{field}.direction"), direction)?;
+            // Scaled first, as the camera's up: [1e300, -1e300, 0] is a direction.
+            let direction = (direction / direction.abs().max_element())
+                .try_normalize()
+                .ok_or(format!("{field}.direction: must not be zero"))?;
+            let cone = number(&format!("{field}.cone_angle"), cone_angle)?;
+            if !(cone > 0.0 && cone <= 180.0) {
+                return Err(format!(
+                    "{field}.cone_angle: must be in (0, 180] degrees, got {cone}"
+                ));
+            }
+            let start = number(
+                &format!("{field}.falloff_start"),
+                falloff_start.unwrap_or(cone),
+            )?;
+            if !(0.0..=cone).contains(&start) {
+                return Err(format!(
+                    "{field}.falloff_start: must be in [0, cone_angle] degrees, got {start}"
+                ));
+            }
+            Light::Spot {
+                position: point(&format!("{field}.position"), position)?,
+                direction,
+                intensity: emission(&format!("{field}.intensity"), intensity)?,
+                cos_cone: cone.to_radians().cos(),
+                cos_falloff_start: start.to_radians().cos(),
+            }
+        }
+        LightDesc::Quad(QuadLight {
+            corner,
+            edge_u,
+            edge_v,
+            radiance,
+        }) => {
+            let [c, u, v] = parallelogram(&field, corner, edge_u, edge_v)?;
+            let radiance = emission(&format!("{field}.radiance"), radiance)?;
+            emitter = Some(SceneMesh {
+                name: format!("{field} (quad light)"),
+                mesh: Arc::new(shapes::quad(c, u, v)),
+                material: Material::Emitter { radiance },
+                report: MeshReport::default(),
+                transform: None,
+            });
+            Light::Quad {
+                corner: c,
+                edge_u: u,
+                edge_v: v,
+                radiance,
+            }
+        }
+    };
+    Ok((light, emitter))
+}
+
+fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Scene, String> {
+    let mesh_bytes = MeshBytes::new(&file, base, progress);
+    let camera = camera(&file.camera)?;
 
     let mut materials = BTreeMap::new();
     for (name, m) in &file.materials {
@@ -584,74 +662,9 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
 
     let mut lights = Vec::new();
     for (i, l) in file.lights.iter().enumerate() {
-        let field = format!("lights[{i}]");
-        let light = match *l {
-            LightDesc::Point(PointLight {
-                position,
-                intensity,
-            }) => Light::Point {
-                position: point(&format!("{field}.position"), position)?,
-                intensity: emission(&format!("{field}.intensity"), intensity)?,
-            },
-            LightDesc::Spot(SpotLight {
-                position,
-                direction,
-                intensity,
-                cone_angle,
-                falloff_start,
-            }) => {
-                let direction = vec3(&format!("{field}.direction"), direction)?;
-                // Scaled first, as the camera's up: [1e300, -1e300, 0] is a direction.
-                let direction = (direction / direction.abs().max_element())
-                    .try_normalize()
-                    .ok_or(format!("{field}.direction: must not be zero"))?;
-                let cone = number(&format!("{field}.cone_angle"), cone_angle)?;
-                if !(cone > 0.0 && cone <= 180.0) {
-                    return Err(format!(
-                        "{field}.cone_angle: must be in (0, 180] degrees, got {cone}"
-                    ));
-                }
-                let start = number(
-                    &format!("{field}.falloff_start"),
-                    falloff_start.unwrap_or(cone),
-                )?;
-                if !(0.0..=cone).contains(&start) {
-                    return Err(format!(
-                        "{field}.falloff_start: must be in [0, cone_angle] degrees, got {start}"
-                    ));
-                }
-                Light::Spot {
-                    position: point(&format!("{field}.position"), position)?,
-                    direction,
-                    intensity: emission(&format!("{field}.intensity"), intensity)?,
-                    cos_cone: cone.to_radians().cos(),
-                    cos_falloff_start: start.to_radians().cos(),
-                }
-            }
-            LightDesc::Quad(QuadLight {
-                corner,
-                edge_u,
-                edge_v,
-                radiance,
-            }) => {
-                let [c, u, v] = parallelogram(&field, corner, edge_u, edge_v)?;
-                let radiance = emission(&format!("{field}.radiance"), radiance)?;
-                meshes.push(SceneMesh {
-                    name: format!("{field} (quad light)"),
-                    mesh: Arc::new(shapes::quad(c, u, v)),
-                    material: Material::Emitter { radiance },
-                    report: MeshReport::default(),
-                    transform: None,
-                });
-                Light::Quad {
-                    corner: c,
-                    edge_u: u,
-                    edge_v: v,
-                    radiance,
-                }
-            }
-        };
+        let (light, emitter) = light(i, l)?;
         lights.push(light);
+        meshes.extend(emitter);
     }
     let placed = file.placed();
     let unplaced: Vec<(&String, &MeshDesc)> = file
