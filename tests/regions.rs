@@ -7,9 +7,9 @@ use photondiff::reference::metrics::Regions;
 use photondiff::render::film::Film;
 use photondiff::scene::file::parse_scene;
 
-/// A floor seen straight down with a glass pane floating above it: in the image the pane is an
-/// axis-aligned rectangle, known from the camera's projection of its corners.
-const SCENE: &str = r#"
+/// A floor seen straight down, a 10 x 10 quad at height 0 of material `floor`, shared by the
+/// scenes below.
+const FLOOR_SEEN_FROM_ABOVE: &str = r#"
 [camera]
 eye = [0.0, 4.0, 0.0]
 look_at = [0.0, 0.0, 0.0]
@@ -22,6 +22,17 @@ height = 48
 type = "diffuse"
 albedo = [0.5, 0.5, 0.5]
 
+[[shapes]]
+type = "quad"
+corner = [-5.0, 0.0, 5.0]
+edge_u = [10.0, 0.0, 0.0]
+edge_v = [0.0, 0.0, -10.0]
+material = "floor"
+"#;
+
+/// A glass pane floating above the floor: in the image the pane is an axis-aligned
+/// rectangle, known from the camera's projection of its corners.
+const PANE: &str = r#"
 [materials.glass]
 type = "glass"
 ior = 1.5
@@ -30,13 +41,6 @@ ior = 1.5
 type = "point"
 position = [0.0, 3.0, 0.0]
 intensity = [10.0, 10.0, 10.0]
-
-[[shapes]]
-type = "quad"
-corner = [-5.0, 0.0, 5.0]
-edge_u = [10.0, 0.0, 0.0]
-edge_v = [0.0, 0.0, -10.0]
-material = "floor"
 
 [[shapes]]
 type = "quad"
@@ -49,7 +53,7 @@ material = "glass"
 #[test]
 fn pixels_partly_covered_by_glass_are_not_judged_as_diffuse() {
     let dir = tempfile::tempdir().unwrap();
-    let scene = parse_scene(SCENE, dir.path()).unwrap();
+    let scene = parse_scene(&format!("{FLOOR_SEEN_FROM_ABOVE}{PANE}"), dir.path()).unwrap();
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let c = &scene.camera;
@@ -128,22 +132,10 @@ fn pixels_partly_covered_by_glass_are_not_judged_as_diffuse() {
     }
 }
 
-/// A floor lit by a small quad light off to the side (facing down), with a diffuse square
+/// A small quad light off to the side of the floor (facing down), with a diffuse square
 /// floating between them: its umbra on the floor lies where the camera, straight above, sees
 /// the floor past the square.
 const QUAD_LIT: &str = r#"
-[camera]
-eye = [0.0, 4.0, 0.0]
-look_at = [0.0, 0.0, 0.0]
-up = [0.0, 0.0, -1.0]
-fov_y = 40.0
-width = 64
-height = 48
-
-[materials.white]
-type = "diffuse"
-albedo = [0.5, 0.5, 0.5]
-
 [[lights]]
 type = "quad"
 corner = [-2.25, 3.0, -0.25]
@@ -153,17 +145,10 @@ radiance = [40.0, 40.0, 40.0]
 
 [[shapes]]
 type = "quad"
-corner = [-5.0, 0.0, 5.0]
-edge_u = [10.0, 0.0, 0.0]
-edge_v = [0.0, 0.0, -10.0]
-material = "white"
-
-[[shapes]]
-type = "quad"
 corner = [-0.3, 0.5, 0.3]
 edge_u = [0.6, 0.0, 0.0]
 edge_v = [0.0, 0.0, -0.6]
-material = "white"
+material = "floor"
 "#;
 
 /// A quad light's umbra is the shadow region. Before stop 56 a scene lit by quad lights alone
@@ -173,7 +158,7 @@ material = "white"
 fn a_quad_lights_umbra_is_the_shadow() {
     use glam::DVec3;
     let dir = tempfile::tempdir().unwrap();
-    let scene = parse_scene(QUAD_LIT, dir.path()).unwrap();
+    let scene = parse_scene(&format!("{FLOOR_SEEN_FROM_ABOVE}{QUAD_LIT}"), dir.path()).unwrap();
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
     let settings = photondiff::reference::cache::ReferenceSettings {
