@@ -29,9 +29,9 @@ pub struct ReportArgs {
     output: PathBuf,
     /// Scene file the images were rendered from: its regions of interest (floor = pixels each
     /// of whose camera rays on a 9 x 9 lattice first hits a diffuse surface, caustic, contour,
-    /// shadow = floor outside the caustic where every light is blocked, a quad light at each
-    /// point of a 5 x 5 lattice over it; as in the timing table) are measured and cropped. Its
-    /// camera must have the reference's size.
+    /// shadow = floor outside the caustic where every point and spot light is blocked; as in
+    /// the timing table; quad lights make neither caustic nor shadow) are measured and cropped.
+    /// Its camera must have the reference's size.
     #[arg(long, value_name = "SCENE.toml")]
     scene: Option<PathBuf>,
     /// A region of interest as a mask (EXR of the same size; a pixel counts when any channel is

@@ -43,7 +43,7 @@ impl Region {
 }
 
 /// How [`scene_regions`] chooses its pixels, for a report's notes.
-pub const REGIONS_NOTE: &str = "Regions: floor = pixels whose every camera ray of a 9 x 9 lattice over the pixel first hits a diffuse surface; caustic = floor pixels where the reference exceeds 1.5 x the unblocked direct light; contour = the tenth of the caustic with the largest reference gradient; shadow = floor pixels outside the caustic where every light is blocked (a quad light at each point of a 5 x 5 lattice over it), though some would light them unblocked; quad lights are left out of the caustic's threshold (in a closed room their reflected light is as bright as their direct light), so a scene lit by quad lights alone has no caustic region.";
+pub const REGIONS_NOTE: &str = "Regions: floor = pixels whose every camera ray of a 9 x 9 lattice over the pixel first hits a diffuse surface; caustic = floor pixels where the reference exceeds 1.5 x the unblocked direct light; contour = the tenth of the caustic with the largest reference gradient; shadow = floor pixels outside the caustic where every point and spot light is blocked (though some would light them unblocked).";
 
 /// A scene's regions of interest (an image of `n` pixels) as the benchmarks and `photondiff
 /// report --scene` show them: floor, caustic, contour and shadow (a region may be empty).
