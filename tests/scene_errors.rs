@@ -612,6 +612,18 @@ fn an_image_beyond_the_process_memory_is_refused_at_once() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+    // Merging the tiles holds them all at once: refused before reading any (it aborted).
+    let out = run(&format!(
+        "merge '{}' -o '{}'",
+        dir.path().join("x.exr").display(),
+        dir.path().join("whole.exr").display()
+    ));
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        "photondiff: error: the whole image's 134212225 pixels need about 8.6 GB to merge \
+         (about 64 bytes each), more than the 3.1 GB this process may use\n"
+    );
+    assert_eq!(out.status.code(), Some(1));
     let out = run(&format!(
         "photons '{}' -o '{}' -q --threads 1 --photons 1000 --caustic-photons 0",
         scene.display(),

@@ -286,7 +286,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let w = window.unwrap_or(Window::full(width, height));
     let part_pixels = u64::from(w.x1 - w.x0) * u64::from(w.y1 - w.y0);
     if pass_range.is_some() {
-        check_part_memory(part_pixels)?;
+        check_part_memory(part_pixels, tile.is_some())?;
     } else {
         let what = match &tile {
             Some(_) => format!("--tile: its {part_pixels} pixels"),
@@ -295,7 +295,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
                 args.scene.display()
             ),
         };
-        film::check_image_memory(&what, part_pixels, film::PEAK_BYTES_PER_PIXEL)?;
+        film::check_image_memory(&what, "to render", part_pixels, film::PEAK_BYTES_PER_PIXEL)?;
     }
     // Once per mesh, whatever --quiet says: the scene is not quite what its files say.
     for warning in scene.warnings() {
@@ -470,15 +470,21 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
 /// part under a 3 GB limit was let through and aborted 21 s later.
 const PART_PEAK_BYTES_PER_PIXEL: u64 = 400;
 
-/// Refuses a pass-range part of `pixels` pixels that needs more memory than this process may
-/// use, before any work.
-fn check_part_memory(pixels: u64) -> Result<(), String> {
+/// Refuses a pass-range part of `pixels` pixels (of a tile where `tiled`) that needs more
+/// memory than this process may use, before any work.
+fn check_part_memory(pixels: u64, tiled: bool) -> Result<(), String> {
+    let more = if tiled {
+        "split the image into more tiles (--tile)"
+    } else {
+        "split the image into tiles too (--tile)"
+    };
     film::check_image_memory(
         &format!("--pass-range: {pixels} pixels (and a part's exact sums)"),
+        "to render",
         pixels,
         PART_PEAK_BYTES_PER_PIXEL,
     )
-    .map_err(|e| format!("{e}: split the image into tiles too (--tile)"))
+    .map_err(|e| format!("{e}: {more}"))
 }
 
 /// The image of `--estimator lighttrace`: the light-tracing reference's paths on the worker

@@ -12,12 +12,17 @@ pub const PEAK_BYTES_PER_PIXEL: u64 = 150;
 /// `pixels` pixels whose render needs more than the memory this process may use: at 2^27
 /// pixels a render under a 6 GB limit aborted ("memory allocation of 6442186800 bytes
 /// failed"). `bytes_per_pixel` is what the run holds a pixel ([`PEAK_BYTES_PER_PIXEL`] for a
-/// whole render).
-pub fn check_image_memory(what: &str, pixels: u64, bytes_per_pixel: u64) -> Result<(), String> {
+/// whole render); `doing` says what the memory is for ("to render").
+pub fn check_image_memory(
+    what: &str,
+    doing: &str,
+    pixels: u64,
+    bytes_per_pixel: u64,
+) -> Result<(), String> {
     let need = pixels.saturating_mul(bytes_per_pixel);
     match crate::util::memory::total_bytes() {
         Some(total) if need > total => Err(format!(
-            "{what} need about {:.1} GB to render (about {bytes_per_pixel} bytes each), more \
+            "{what} need about {:.1} GB {doing} (about {bytes_per_pixel} bytes each), more \
              than the {:.1} GB this process may use",
             need as f64 / 1e9,
             total as f64 / 1e9

@@ -22,6 +22,14 @@ pub struct Part {
     pub metadata: BTreeMap<String, String>,
 }
 
+/// The whole image's pixels as part `path`'s header gives them (its display window), read
+/// without its pixels; `None` where the header cannot be read (the reader then says why).
+pub fn display_pixels(path: &Path) -> Option<u64> {
+    let meta = exr::meta::MetaData::read_from_file(path, false).ok()?;
+    let size = meta.headers.first()?.shared_attributes.display_window.size;
+    Some(size.width() as u64 * size.height() as u64)
+}
+
 /// Reads an EXR written by `photondiff render` (or merged by `photondiff merge`).
 pub fn read_part(path: &Path) -> Result<Part, String> {
     use exr::prelude::*;
