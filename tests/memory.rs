@@ -334,3 +334,54 @@ fn a_robust_bvh_traces_a_quad_lights_photons_as_the_ordinary_one_does() {
     assert!(ordinary.len() > 5000 * 80, "{} bytes", ordinary.len());
     assert!(robust == ordinary, "the robust BVH's maps differ");
 }
+
+/// What a pixel costs at the peak of a render: the slope of the peak resident memory from
+/// 1000 x 1000 to 2000 x 2000 pixels stays within what the image checks assume
+/// (`PEAK_BYTES_PER_PIXEL`, 175; 167 measured at stop 57, where 150 was assumed and a tile
+/// passed the check and aborted), and above the 72 bytes of the film and the running sums
+/// (three `f64` RGB images): a slope below that would mean the peak was taken before the
+/// image was.
+#[test]
+fn a_pixel_takes_at_most_what_the_image_checks_assume() {
+    let dir = tempfile::tempdir().unwrap();
+    let peak = |side: u32| {
+        let scene = dir.path().join("scene.toml");
+        std::fs::write(
+            &scene,
+            format!(
+                "[camera]\neye = [0.0, 2.0, 5.0]\nlook_at = [0.0, 0.0, 0.0]\n\
+                 up = [0.0, 1.0, 0.0]\nfov_y = 40.0\nwidth = {side}\nheight = {side}\n\
+                 [materials.white]\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
+                 [[lights]]\ntype = \"point\"\nposition = [0.0, 4.0, 0.0]\n\
+                 intensity = [10.0, 10.0, 10.0]\n[[shapes]]\ntype = \"quad\"\n\
+                 corner = [-2.0, 0.0, 2.0]\nedge_u = [4.0, 0.0, 0.0]\nedge_v = [0.0, 0.0, -4.0]\n\
+                 material = \"white\"\n"
+            ),
+        )
+        .unwrap();
+        let json = dir.path().join("stats.json");
+        common::run_ok([
+            "render",
+            scene.to_str().unwrap(),
+            "--estimator",
+            "direct",
+            "-q",
+            "--footprint-shadow-rays",
+            "1",
+            "-o",
+            dir.path().join("x.exr").to_str().unwrap(),
+            "--stats-json",
+            json.to_str().unwrap(),
+        ]);
+        let stats: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        stats["memory"]["peak_resident_bytes"].as_f64().unwrap()
+    };
+    let (small, large) = (peak(1000), peak(2000));
+    let per_pixel = (large - small) / 3e6;
+    let assumed = photondiff::render::film::PEAK_BYTES_PER_PIXEL as f64;
+    assert!(
+        (72.0..=assumed).contains(&per_pixel),
+        "{per_pixel} bytes a pixel at peak ({small} -> {large})"
+    );
+}

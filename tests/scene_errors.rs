@@ -585,11 +585,12 @@ fn an_image_beyond_the_process_memory_is_refused_at_once() {
     };
     let out = render("");
     // (After the warning of a scene without shapes.)
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = left_masked(&out.stderr);
     assert!(
         stderr.ends_with(&format!(
-            "\nphotondiff: error: {}: camera: 11585 x 11585 pixels need about 20.1 GB to \
-             render (about 150 bytes each), more than the 3.1 GB this process may use\n",
+            "\nphotondiff: error: {}: camera: 11585 x 11585 pixels need about 23.5 GB to \
+             render (about 175 bytes each), more than the N GB left of the 3.1 GB this process \
+             may use\n",
             scene.display()
         )),
         "{stderr}"
@@ -597,15 +598,28 @@ fn an_image_beyond_the_process_memory_is_refused_at_once() {
     assert_eq!(out.status.code(), Some(1));
     // A quarter does not fit either (5.0 GB), ...
     let out = render("-q --tile 0/4");
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = left_masked(&out.stderr);
     assert!(
         stderr.ends_with(
-            "\nphotondiff: error: --tile: its 33550160 pixels need about 5.0 GB to render \
-             (about 150 bytes each), more than the 3.1 GB this process may use\n"
+            "\nphotondiff: error: --tile: its 33550160 pixels need about 5.9 GB to render \
+             (about 175 bytes each), more than the N GB left of the 3.1 GB this process may \
+             use\n"
         ),
         "{stderr}"
     );
-    // ... a sixteenth does (1.3 GB).
+    // ... nor a seventh (3.3 GB: it passed the check at 150 bytes a pixel, 2.9 GB, and
+    // aborted), ...
+    let out = render("-q --tile 0/7");
+    let stderr = left_masked(&out.stderr);
+    assert!(
+        stderr.ends_with(
+            "\nphotondiff: error: --tile: its 19092080 pixels need about 3.3 GB to render \
+             (about 175 bytes each), more than the N GB left of the 3.1 GB this process may \
+             use\n"
+        ),
+        "{stderr}"
+    );
+    // ... a sixteenth does (1.5 GB).
     let out = render("-q --tile 0/16 --footprint-shadow-rays 1");
     assert!(
         out.status.success(),
@@ -619,9 +633,9 @@ fn an_image_beyond_the_process_memory_is_refused_at_once() {
         dir.path().join("whole.exr").display()
     ));
     assert_eq!(
-        String::from_utf8_lossy(&out.stderr),
+        left_masked(&out.stderr),
         "photondiff: error: the whole image's 134212225 pixels need about 8.6 GB to merge \
-         (about 64 bytes each), more than the 3.1 GB this process may use\n"
+         (about 64 bytes each), more than the N GB left of the 3.1 GB this process may use\n"
     );
     assert_eq!(out.status.code(), Some(1));
     let out = run(&format!(
@@ -634,6 +648,60 @@ fn an_image_beyond_the_process_memory_is_refused_at_once() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+/// A memory refusal's message with the gigabytes left (the limit less what the process held
+/// then, which varies from run to run by a few hundredths) written `N`.
+fn left_masked(stderr: &[u8]) -> String {
+    let text = String::from_utf8_lossy(stderr);
+    let Some(end) = text.find(" GB left of the ") else {
+        return text.into_owned();
+    };
+    let start = text[..end]
+        .rfind("the ")
+        .expect("\"more than the X GB left\"")
+        + 4;
+    assert!(text[start..end].parse::<f64>().is_ok(), "{text}");
+    format!("{}N{}", &text[..start], &text[end..])
+}
+
+/// The refusal counts what the process holds already, not only its limit: a tile that needs
+/// 2.9 GB, under a 3.07 GB limit, of a scene whose sphere holds 0.9 GB of mesh buffers is
+/// refused before the BVH is built.
+#[test]
+fn memory_already_held_counts_against_the_image() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    let camera = CAMERA
+        .replace("width = 32", "width = 11585")
+        .replace("height = 24", "height = 11585");
+    let ball = "[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\n\
+                material = \"white\"\nsegments = 6000\n";
+    std::fs::write(&scene, format!("{camera}{REST}{ball}")).unwrap();
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(format!(
+            "ulimit -v 3000000; exec '{exe}' render '{}' -o '{}' --estimator direct -q \
+             --tile 0/8",
+            scene.display(),
+            dir.path().join("x.exr").display()
+        ))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let prefix = "photondiff: error: --tile: its 16682400 pixels need about 2.9 GB to render \
+                  (about 175 bytes each), more than the ";
+    let left: f64 = stderr
+        .strip_prefix(prefix)
+        .and_then(|rest| rest.strip_suffix(" GB left of the 3.1 GB this process may use\n"))
+        .unwrap_or_else(|| panic!("{stderr}"))
+        .parse()
+        .unwrap();
+    // The sphere's 0.86 GB of buffers (and the tessellation's) are held.
+    assert!(left < 2.3, "{stderr}");
+    assert_eq!(out.status.code(), Some(1));
+    assert!(!dir.path().join("x.exr").exists());
 }
 
 /// A pass-range part holds its exact sums beside the film, more than twice a whole render's
@@ -662,12 +730,12 @@ fn a_pass_range_part_beyond_the_process_memory_is_refused_at_once() {
     };
     let out = run("");
     // (After the warning of a scene without shapes.)
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = left_masked(&out.stderr);
     assert!(
         stderr.ends_with(
             "\nphotondiff: error: --pass-range: 12582912 pixels (and a part's exact sums) need \
-             about 5.0 GB to render (about 400 bytes each), more than the 3.1 GB this process \
-             may use: split the image into tiles too (--tile)\n"
+             about 5.0 GB to render (about 400 bytes each), more than the N GB left of the 3.1 \
+             GB this process may use: split the image into tiles too (--tile)\n"
         ),
         "{stderr}"
     );

@@ -1,7 +1,7 @@
 //! The regular photon-map estimate (Jensen): the k nearest photons, a normalised kernel.
 
 use super::{same_side, GatherCounts, GatherQuery, RadianceEstimator};
-use crate::photons::map::PhotonMap;
+use crate::photons::map::{k_nearest_radius2, PhotonMap};
 use glam::{DVec3, Vec3};
 use std::f64::consts::FRAC_1_PI;
 
@@ -28,15 +28,8 @@ impl RadianceEstimator for JensenEstimate<'_> {
         if found.is_empty() {
             return DVec3::ZERO;
         }
-        let r2 = if found.len() < self.k {
-            (self.max_radius * self.max_radius) as f32
-        } else {
-            // Above zero (k photons on one point), by a part of the largest radius: 1e-12
-            // whatever the scene's size blurred every gather of a scene a micrometre across.
-            found[found.len() - 1]
-                .0
-                .max((1e-12 * self.max_radius * self.max_radius) as f32)
-        };
+        let kth2 = found[found.len() - 1].0;
+        let r2 = k_nearest_radius2(found.len(), self.k, kth2, self.max_radius);
         let x = q.position.as_vec3();
         let n = q.normal.as_vec3();
         let thickness = 0.1 * r2.sqrt();

@@ -316,6 +316,19 @@ impl PhotonMap {
     }
 }
 
+/// The squared radius of a k-nearest estimate: the `k`-th photon's squared distance `kth2` when
+/// `found` reached `k`, else `max_radius` squared. Kept above zero, where `k` photons share
+/// one point, by a part of the largest radius (1e-12 whatever the scene's size blurred every
+/// gather of a scene a micrometre across), so that such a point reads bright, not black.
+pub fn k_nearest_radius2(found: usize, k: usize, kth2: f32, max_radius: f64) -> f32 {
+    let max_r2 = (max_radius * max_radius) as f32;
+    if found < k {
+        max_r2
+    } else {
+        kth2.max((1e-12 * max_radius * max_radius) as f32)
+    }
+}
+
 /// A packet's footprint queries and the photons each finds, kept across packets so that
 /// searching allocates nothing once warm: what an estimator that answers a packet of gathers
 /// at once ([`crate::estimate::RadianceEstimator::radiance_batch`]) asks the map.

@@ -10,7 +10,7 @@
 //!
 //! The estimate at a point is Jensen's: `E = sum of the powers of the photons among its k
 //! nearest that face its way / (pi r^2)`, `r` the distance of the k-th (or the largest radius,
-//! when fewer lie within it); radiance `albedo / pi * E`. Its blur (a disc of `k` photons) is
+//! when fewer lie within it; never zero, [`k_nearest_radius2`]); radiance `albedo / pi * E`. Its blur (a disc of `k` photons) is
 //! invisible after gathering: the gather averages many such values over the hemisphere.
 //!
 //! [`PathClass::AllDiffuse`]: crate::photons::map::PathClass::AllDiffuse
@@ -18,6 +18,7 @@
 // Photons facing another way than a point (the other side of a thin wall, across an edge) do not
 // count, as in the estimators' test.
 use crate::photons::cover::MIN_NORMAL_COSINE;
+use crate::photons::map::k_nearest_radius2;
 use crate::photons::trace::TracedPhoton;
 use glam::{DVec3, Vec3};
 use kiddo::immutable::float::kdtree::ImmutableKdTree;
@@ -108,22 +109,15 @@ impl RadianceMap {
                 let n = here.normal;
                 let found =
                     tree.nearest_n_within::<SquaredEuclidean>(&positions[i], max_r2, k, true);
-                let r2 = if found.len() == RADIANCE_NEIGHBOURS {
-                    found.last().map_or(max_r2, |f| f.distance)
-                } else {
-                    max_r2
-                };
+                let kth2 = found.last().map_or(max_r2, |f| f.distance);
+                let r2 = k_nearest_radius2(found.len(), RADIANCE_NEIGHBOURS, kth2, max_radius);
                 let power: DVec3 = found
                     .iter()
                     .map(|f| &photons[f.item as usize])
                     .filter(|p| p.normal.dot(n) > MIN_NORMAL_COSINE)
                     .map(|p| p.power)
                     .sum();
-                let irradiance = if r2 > 0.0 {
-                    power * scale / (PI * r2 as f64)
-                } else {
-                    DVec3::ZERO
-                };
+                let irradiance = power * scale / (PI * r2 as f64);
                 RadiancePoint {
                     normal: n,
                     radiance: (here.albedo / PI * irradiance).as_vec3(),
@@ -177,5 +171,60 @@ impl RadianceMap {
             .map(|f| (f.distance, &self.points[f.item as usize]))
             .find(|&(d2, p)| usable(d2, p))
             .map(|(_, p)| found(p))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(position: Vec3) -> RadianceSample {
+        RadianceSample {
+            position,
+            normal: Vec3::Z,
+            power: DVec3::ONE,
+            albedo: DVec3::splat(0.5),
+        }
+    }
+
+    /// Where more than k photons share one point the estimate's disc is the floor of
+    /// [`k_nearest_radius2`]: the point reads k photons' power over that disc, not black.
+    #[test]
+    fn photons_on_one_point_read_bright() {
+        let photons = vec![sample(Vec3::new(0.25, 0.5, 0.0)); 3 * RADIANCE_NEIGHBOURS];
+        let max_radius = 0.1;
+        let map = RadianceMap::new(&photons, 1, max_radius);
+        let (radiance, r2) = map
+            .lookup(DVec3::new(0.25, 0.5, 0.0), DVec3::Z)
+            .expect("the point is where the photons are");
+        let floor = (1e-12 * max_radius * max_radius) as f32 as f64;
+        assert_eq!(r2, floor);
+        let expected = 0.5 / PI * RADIANCE_NEIGHBOURS as f64 / (PI * floor);
+        assert!(
+            ((radiance.x - expected) / expected).abs() < 1e-6,
+            "{radiance} against {expected}"
+        );
+    }
+
+    /// A lattice of photons of one watt per square metre reads that irradiance, times
+    /// albedo / pi, within the noise of counting a disc's lattice points.
+    #[test]
+    fn uniform_lattice_reads_its_irradiance() {
+        let spacing = 0.01_f32;
+        let photons: Vec<RadianceSample> = (0..100 * 100)
+            .map(|i| {
+                let (x, y) = ((i % 100) as f32, (i / 100) as f32);
+                let mut s = sample(Vec3::new(x * spacing, y * spacing, 0.0));
+                s.power = DVec3::splat((spacing * spacing) as f64);
+                s
+            })
+            .collect();
+        let map = RadianceMap::new(&photons, 1, 1.0);
+        let (radiance, _) = map.lookup(DVec3::new(0.5, 0.5, 0.0), DVec3::Z).unwrap();
+        let expected = 0.5 / PI;
+        assert!(
+            ((radiance.x - expected) / expected).abs() < 0.1,
+            "{radiance} against {expected}"
+        );
     }
 }

@@ -1,15 +1,20 @@
 //! The film: linear RGB radiance per pixel, written as a float EXR and an sRGB PNG preview.
 
+use crate::util::memory;
 use glam::DVec3;
 use std::path::Path;
 
 /// What a render holds per pixel at its peak (the running sums, the film, the pass's image and
-/// its EXR and PNG): 3000 x 3000 peaked at 1.27 GB with `--estimator direct` and 1.36 GB with
-/// the default (stop 50; the README said 50 until then).
-pub const PEAK_BYTES_PER_PIXEL: u64 = 150;
+/// its EXR and PNG). Measured as the growth of the peak from 2000 x 2000 to 4000 x 4000
+/// pixels (stop 57): 167 bytes a pixel resident with `--estimator direct`, 163 with the
+/// default, 168 of address space (what `ulimit -v` limits). Stop 50 measured 1.27 GB at
+/// 3000 x 3000 and set 150, under which a tile needing 3.2 GB passed the check under a
+/// 3.07 GB limit and aborted. `tests/memory.rs` checks a render against it.
+pub const PEAK_BYTES_PER_PIXEL: u64 = 175;
 
 /// Refuses, before anything is allocated, an image (or the part of it that `what` names) of
-/// `pixels` pixels whose render needs more than the memory this process may use: at 2^27
+/// `pixels` pixels whose render needs more than the memory this process may still take
+/// ([`memory::available_bytes`]: what it may use less what it holds already): at 2^27
 /// pixels a render under a 6 GB limit aborted ("memory allocation of 6442186800 bytes
 /// failed"). `bytes_per_pixel` is what the run holds a pixel ([`PEAK_BYTES_PER_PIXEL`] for a
 /// whole render); `doing` says what the memory is for ("to render").
@@ -20,14 +25,13 @@ pub fn check_image_memory(
     bytes_per_pixel: u64,
 ) -> Result<(), String> {
     let need = pixels.saturating_mul(bytes_per_pixel);
-    match crate::util::memory::total_bytes() {
-        Some(total) if need > total => Err(format!(
+    match memory::short_of(need) {
+        Some(left) => Err(format!(
             "{what} need about {:.1} GB {doing} (about {bytes_per_pixel} bytes each), more \
-             than the {:.1} GB this process may use",
-            need as f64 / 1e9,
-            total as f64 / 1e9
+             than {left}",
+            need as f64 / 1e9
         )),
-        _ => Ok(()),
+        None => Ok(()),
     }
 }
 

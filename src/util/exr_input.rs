@@ -57,16 +57,12 @@ pub fn check_size(path: &Path) -> Result<(), String> {
             ));
         }
         let needed = samples.saturating_add(pixels.saturating_mul(24));
-        if let Some(total) = super::memory::total_bytes() {
-            if needed > total {
-                return Err(format!(
-                    "{}: {w} x {h} pixels would take {:.1} GB to read, more than the \
-                     {:.1} GB this process may use",
-                    path.display(),
-                    needed as f64 / 1e9,
-                    total as f64 / 1e9
-                ));
-            }
+        if let Some(left) = super::memory::short_of(needed) {
+            return Err(format!(
+                "{}: {w} x {h} pixels would take {:.1} GB to read, more than {left}",
+                path.display(),
+                needed as f64 / 1e9,
+            ));
         }
     }
     Ok(())

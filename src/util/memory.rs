@@ -18,18 +18,47 @@ pub fn status_bytes(field: &str) -> Option<u64> {
 /// before big allocations read it: under a 6 GB limit on a 25 GB machine, a render went ahead
 /// and aborted minutes later ("memory allocation of 5368709120 bytes failed").
 pub fn total_bytes() -> Option<u64> {
-    let machine = std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|text| {
-            text.lines()
-                .find_map(|l| l.strip_prefix("MemTotal:"))
-                .and_then(|v| v.trim().strip_suffix("kB")?.trim().parse::<u64>().ok())
-                .map(|kb| kb * 1024)
-        });
-    [machine, address_space_limit(), cgroup_limit()]
+    [total_machine_bytes(), address_space_limit(), cgroup_limit()]
         .into_iter()
         .flatten()
         .min()
+}
+
+/// The machine's memory (`MemTotal` of `/proc/meminfo`).
+fn total_machine_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    text.lines()
+        .find_map(|l| l.strip_prefix("MemTotal:"))
+        .and_then(|v| v.trim().strip_suffix("kB")?.trim().parse::<u64>().ok())
+        .map(|kb| kb * 1024)
+}
+
+/// The memory this process may still take: under each of [`total_bytes`]' limits, what it
+/// does not hold already (the machine's memory less what is resident, the address-space limit
+/// less the address space mapped, `VmSize`, the control group's `memory.max` less its
+/// `memory.current`); `None` where no limit is known. The checks before big allocations read
+/// it: counting the limit alone, a tile needing 2.89 GB under a 3.07 GB `ulimit -v` started
+/// and aborted, the scene, Embree and the threads holding the rest.
+pub fn available_bytes() -> Option<u64> {
+    let machine = total_machine_bytes().map(|t| t.saturating_sub(resident_bytes()));
+    let address_space = address_space_limit()
+        .map(|limit| limit.saturating_sub(status_bytes("VmSize").unwrap_or(0)));
+    let group = cgroup_limit().map(|max| max.saturating_sub(cgroup_current().unwrap_or(0)));
+    [machine, address_space, group].into_iter().flatten().min()
+}
+
+/// Where `need` bytes are more than this process may still take ([`available_bytes`]), what
+/// it may take, as the refusals say it: "the 2.9 GB left of the 3.1 GB this process may use";
+/// `None` where they fit or no limit is known.
+pub fn short_of(need: u64) -> Option<String> {
+    let (total, left) = (total_bytes()?, available_bytes()?);
+    (need > left).then(|| {
+        format!(
+            "the {:.1} GB left of the {:.1} GB this process may use",
+            left as f64 / 1e9,
+            total as f64 / 1e9
+        )
+    })
 }
 
 /// The soft address-space limit (`Max address space` of `/proc/self/limits`), `None` when
@@ -53,10 +82,20 @@ fn address_space_in(limits: &str) -> Option<u64> {
 /// The `memory.max` of this process's control group (cgroup v2), `None` when `max` or
 /// unknown.
 fn cgroup_limit() -> Option<u64> {
+    cgroup_file("memory.max")?.parse().ok()
+}
+
+/// The memory this process's control group holds (`memory.current`, cgroup v2).
+fn cgroup_current() -> Option<u64> {
+    cgroup_file("memory.current")?.parse().ok()
+}
+
+/// A file of this process's control group (cgroup v2), trimmed.
+fn cgroup_file(name: &str) -> Option<String> {
     let own = std::fs::read_to_string("/proc/self/cgroup").ok()?;
     let path = own.lines().find_map(|l| l.strip_prefix("0::"))?;
-    let max = std::fs::read_to_string(format!("/sys/fs/cgroup{}/memory.max", path.trim())).ok()?;
-    max.trim().parse().ok()
+    let text = std::fs::read_to_string(format!("/sys/fs/cgroup{}/{name}", path.trim())).ok()?;
+    Some(text.trim().to_string())
 }
 
 /// The process's peak before [`ResidentMark::now`] last restarted the kernel's (`VmHWM`).
@@ -160,6 +199,18 @@ mod tests {
         assert_eq!(address_space_in(&unlimited), None, "{unlimited}");
         // This process: unlimited here, so the machine's memory or a control group's.
         assert!(address_space_limit().is_none_or(|l| l >= total_bytes().unwrap()));
+    }
+
+    /// What is left is the limit less what the process holds: with 256 MiB written, at least
+    /// 200 MiB less than the limit (other tests of the process allocate and free meanwhile).
+    #[test]
+    fn what_is_left_counts_what_the_process_holds() {
+        let block = vec![1u8; 256 << 20];
+        assert!(block.iter().step_by(4096).all(|&b| b == 1));
+        let (total, left) = (total_bytes().unwrap(), available_bytes().unwrap());
+        assert!(left + (200 << 20) <= total, "{left} of {total}");
+        assert!(short_of(total).is_some() && short_of(0).is_none());
+        drop(block);
     }
 
     #[test]
