@@ -10,7 +10,10 @@
 //! `pub mod` line; its variant of [`EstimatorKind`] (clap lists it in `--help` from the doc
 //! comment) and its arm in [`EstimatorSettings::estimator_over`]; its label in
 //! `reference::experiment::Method::label`; its line in README's `--estimator` row
-//! (`tests/cli_docs.rs` checks). The compiler finds the two match arms. The tests that mean
+//! (`tests/cli_docs.rs` checks). The compiler finds every match that must decide for it:
+//! those two, [`EstimatorKind`]'s properties (whether it reads the maps and the footprints,
+//! whether its passes converge), its defaults (`render::defaults::RenderDefaults::
+//! for_estimator`) and its default passes (`cli/render/checks.rs`). The tests that mean
 //! every estimator loop over [`EstimatorKind::over_maps`] and take it unnamed: power conserved
 //! (`tests/every_estimator.rs`), no NaN or negative pixel and a packet answered as its gathers
 //! one by one (`tests/view_estimators.rs`), random scenes (`tests/fuzz.rs`), the stress scenes

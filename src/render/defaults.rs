@@ -103,7 +103,14 @@ impl RenderDefaults {
                 footprint_strata: DEFAULT_FOOTPRINT_SHADOW_RAYS,
                 long_run_edge_grid: LONG_RUN_EDGE_GRID,
             },
-            _ => RenderDefaults {
+            // Every kind named, so that a new estimator is given its defaults, not these by
+            // default.
+            EstimatorKind::Direct
+            | EstimatorKind::Jensen
+            | EstimatorKind::Pd
+            | EstimatorKind::Coplanar
+            | EstimatorKind::Multisampled
+            | EstimatorKind::Lighttrace => RenderDefaults {
                 caustic_photons: thesis.caustic_photons,
                 global_photons: thesis.global_photons,
                 global_aim: thesis.global_aim,

@@ -77,9 +77,16 @@ pub(super) fn stop_rules(args: &RenderArgs) -> Result<StopRules, String> {
         }
     }
     let open = args.time_budget.is_some() || args.target_noise.is_some();
+    // Progressive by default where the passes converge to the reference and the default
+    // render's schedule is tuned (`integrated`); the thesis's single pass for the others.
     let default = match kind {
         EstimatorKind::Integrated => DEFAULT_PASSES,
-        _ => 1,
+        EstimatorKind::Direct
+        | EstimatorKind::Jensen
+        | EstimatorKind::Pd
+        | EstimatorKind::Coplanar
+        | EstimatorKind::Multisampled
+        | EstimatorKind::Lighttrace => 1,
     };
     let passes = passes.or(if open { None } else { Some(default) });
     Ok(StopRules {

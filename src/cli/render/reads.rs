@@ -175,7 +175,8 @@ impl Reader {
     fn reads(self, run: &Run) -> bool {
         use EstimatorKind::*;
         let maps = run.kind.reads_maps();
-        let footprints = maps && (run.kind != Jensen || run.gather_rays > 0 || run.probe_walls);
+        let footprints =
+            run.kind.reads_footprints() || (maps && (run.gather_rays > 0 || run.probe_walls));
         match self {
             Reader::PhotonMaps => maps,
             Reader::AimedGlobalMap => maps && run.gather_rays == 0,
