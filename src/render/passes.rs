@@ -38,10 +38,8 @@
 use crate::embree;
 use crate::estimate::select::GatherScene;
 use crate::estimate::{EstimatorKind, EstimatorSettings, RadianceEstimator};
-use crate::geometry::sampling::r2;
 use crate::photons::options::PhotonOptions;
 use crate::photons::PhotonMaps;
-use crate::render::defaults::DEFAULT_PASSES;
 use crate::render::direct_light::DirectLight;
 use crate::render::edges::EdgeMask;
 use crate::render::image::{render_image, RenderOptions, RenderedImage};
@@ -53,171 +51,13 @@ use crate::render::stats::{Stage, Stats};
 use crate::scene::Scene;
 use crate::util::rng::derive_seed;
 use crate::util::trace;
-use serde::Serialize;
 use std::ops::Range;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
-/// Default `alpha` of the caustic map's footprint schedule (`--alpha`): its error is mostly
-/// bias of first order in the footprint's radius (module documentation).
-pub const DEFAULT_ALPHA: f64 = 0.5;
-
-/// Default `alpha` of the global map's footprint schedule (`--global-alpha`): the caustic map's.
-/// Global light is smooth in the open, where 2/3 would serve it (the canonical scene's shadow,
-/// 5% lower error after 12 passes), but a wall or an edge gives it a bias of first order
-/// too, which then dominates (over-an-edge's box foot, lit by the caustic's reflection: its
-/// contour's error after 200 passes 0.037 with 2/3, 0.024 with 1/2; README, "Progressive
-/// passes").
-pub const DEFAULT_GLOBAL_ALPHA: f64 = DEFAULT_ALPHA;
-
-/// The photon options of pass `pass` of a run with `photons` and the footprint schedules
-/// `alpha` (caustic) and `global_alpha` (global): the part of [`Progressive::pass_settings`]
-/// that needs no scene (pass 0's are `photons` themselves).
-pub fn pass_photons(
-    photons: &PhotonOptions,
-    alpha: f64,
-    global_alpha: f64,
-    pass: u64,
-) -> PhotonOptions {
-    let s = area_factor(alpha, pass);
-    let global = area_factor(global_alpha, pass);
-    let (lo, hi) = photons.radius_limits;
-    PhotonOptions {
-        overlap: photons.overlap * s,
-        radius_limits: (lo * s.sqrt(), hi * s.sqrt()),
-        global_area_scale: photons.global_area_scale * global / s,
-        seed: derive_seed(photons.seed, pass),
-        ..photons.clone()
-    }
-}
-
-/// The footprint area factor of pass `pass`: `prod_{j=1..pass} (j + alpha) / (j + 1)`.
-pub fn area_factor(alpha: f64, pass: u64) -> f64 {
-    (1..=pass).fold(1.0, |s, j| s * (j as f64 + alpha) / (j as f64 + 1.0))
-}
-
-/// The camera jitter of pass `pass` within a view-grid cell (`(0.5, 0.5)` for pass 0).
-pub fn jitter(pass: u64) -> [f64; 2] {
-    let (u, v) = r2(pass, [0.5, 0.5]);
-    [u, v]
-}
-
-/// The error of a run stopped during its first pass: no pass is whole, so there is no image.
-pub const INTERRUPTED_IN_FIRST_PASS: &str =
-    "interrupted during the first pass: no pass was finished, so no image was written";
-
-/// When a progressive render stops: after `passes` passes, before a pass that would end after
-/// `time_budget`, once the noise estimate falls below `target_noise` (or two passes show a
-/// black image), or (with `on_interrupt`) when [`crate::util::interrupt`] asks it to, the pass
-/// under way dropped, whichever comes first. At least one pass is rendered, but for a stop
-/// asked during the first.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct StopRules {
-    /// Largest number of passes (`None`: no limit).
-    pub passes: Option<u64>,
-    /// Time for all passes (photon tracing and rendering; not loading or writing).
-    pub time_budget: Option<Duration>,
-    /// Relative standard error ([`NoiseEstimate::worst`]) to reach.
-    pub target_noise: Option<f64>,
-    /// Whether a stop requested through [`crate::util::interrupt`] (Ctrl-C at the command
-    /// line) ends the run after the pass under way.
-    pub on_interrupt: bool,
-}
-
-impl StopRules {
-    /// Whether these rules make a long run: a time budget, a target noise or more than
-    /// [`DEFAULT_PASSES`] passes (where [`crate::render::defaults::LONG_RUN_EDGE_GRID`]
-    /// applies).
-    pub fn is_long(&self) -> bool {
-        self.time_budget.is_some()
-            || self.target_noise.is_some()
-            || self.passes.is_some_and(|n| n > DEFAULT_PASSES)
-    }
-}
-
-/// The stage (and the trace's mark) of a pass an interrupt cut short and the run dropped.
-pub const DROPPED_PASS: &str = "dropped pass (interrupted)";
-
-/// Why a progressive render stopped.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StopReason {
-    /// The number of passes asked for was rendered.
-    Passes,
-    /// Another pass would not have fitted the time budget.
-    TimeBudget,
-    /// The noise estimate fell below the target.
-    TargetNoise,
-    /// A stop was requested (Ctrl-C): the image is the mean of the passes done.
-    Interrupted,
-    /// With a target noise, two passes gave an image black everywhere: its relative noise is
-    /// undefined, and waiting for it ran forever.
-    BlackImage,
-}
-
-impl StopReason {
-    /// Its name in the statistics JSON and the EXR attribute `photondiff/passes_stopped_by`
-    /// (`time_budget`; the attribute once lower-cased the variant's name, `timebudget`).
-    pub fn name(self) -> &'static str {
-        match self {
-            StopReason::Passes => "passes",
-            StopReason::TimeBudget => "time_budget",
-            StopReason::TargetNoise => "target_noise",
-            StopReason::Interrupted => "interrupted",
-            StopReason::BlackImage => "black_image",
-        }
-    }
-
-    /// As the statistics' summary says it (the JSON's names, in words).
-    pub fn words(self) -> &'static str {
-        match self {
-            StopReason::Passes => "the passes asked for",
-            StopReason::TimeBudget => "the time budget",
-            StopReason::TargetNoise => "the target noise",
-            StopReason::Interrupted => "an interrupt",
-            StopReason::BlackImage => "a black image (no noise to measure against the target)",
-        }
-    }
-}
-
-/// What a progressive render reports (in the statistics and the EXR metadata).
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct PassReport {
-    /// Passes of the render: those rendered, or for a `--pass-range` part the whole render's
-    /// count, its own passes being [`PassReport::pass_range`].
-    pub passes: u64,
-    /// A `--pass-range A..B` part's passes, `[A, B]` (B not rendered); `None` for a whole
-    /// render and in a merge's report.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub pass_range: Option<[u64; 2]>,
-    /// The caustic map's schedule's `alpha`.
-    pub alpha: f64,
-    /// The global map's schedule's `alpha`.
-    pub global_alpha: f64,
-    /// The caustic footprints' area factor of the last pass.
-    pub last_area_factor: f64,
-    /// Why it stopped.
-    pub stop: StopReason,
-    /// Mean wall-clock seconds per pass.
-    pub seconds_per_pass: f64,
-    /// The noise of the mean, estimated from the passes.
-    pub noise: NoiseEstimate,
-}
-
-impl PassReport {
-    /// The passes this run rendered (a part's own, not the whole render's).
-    pub fn rendered(&self) -> u64 {
-        self.pass_range.map_or(self.passes, |[a, b]| b - a)
-    }
-
-    /// "N passes", or a part's "passes A to B - 1 of an N-pass render".
-    pub fn describe_passes(&self) -> String {
-        match self.pass_range {
-            None => format!("{} passes", self.passes),
-            Some([a, b]) if b == a + 1 => format!("pass {a} of a {}-pass render", self.passes),
-            Some([a, b]) => format!("passes {a} to {} of a {}-pass render", b - 1, self.passes),
-        }
-    }
-}
+mod schedule;
+mod stop;
+pub use schedule::{area_factor, jitter, pass_photons, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
+pub use stop::{PassReport, StopReason, StopRules, DROPPED_PASS, INTERRUPTED_IN_FIRST_PASS};
 
 /// A progressive render's settings: everything pass `i` depends on besides `i`.
 #[derive(Clone)]
