@@ -166,6 +166,55 @@ fn gather_rays_traced_a_bounce_further_keep_the_closed_sphere_right() {
     }
 }
 
+/// A closed cube of albedo `rho` around a 10 W/sr point light, seen from its centre through
+/// one face at 90 degrees: the image maps the face evenly, so its mean is the walls' mean
+/// radiance, `rho P / (pi A (1 - rho))` (`P` the light's 40 pi W, `A` the 24 m^2 of walls).
+fn closed_box(rho: f64, side: u32) -> String {
+    let mut text = format!(
+        "[camera]\neye = [0.0, 0.0, 0.0]\nlook_at = [0.0, 0.0, -1.0]\nup = [0.0, 1.0, 0.0]\n\
+         fov_y = 90.0\nwidth = {side}\nheight = {side}\n\
+         [materials.w]\ntype = \"diffuse\"\nalbedo = [{rho}, {rho}, {rho}]\n\
+         [[lights]]\ntype = \"point\"\nposition = [0.0, 0.0, 0.0]\nintensity = [10.0, 10.0, 10.0]\n"
+    );
+    let faces = [
+        ([-1, -1, -1], [2, 0, 0], [0, 2, 0]),
+        ([1, -1, 1], [-2, 0, 0], [0, 2, 0]),
+        ([-1, -1, 1], [0, 0, -2], [0, 2, 0]),
+        ([1, -1, -1], [0, 0, 2], [0, 2, 0]),
+        ([-1, -1, 1], [2, 0, 0], [0, 0, -2]),
+        ([-1, 1, -1], [2, 0, 0], [0, 0, 2]),
+    ];
+    for (corner, u, v) in faces {
+        text += &format!(
+            "[[shapes]]\ntype = \"quad\"\ncorner = {corner:?}\nedge_u = {u:?}\nedge_v = {v:?}\n\
+             material = \"w\"\n"
+        );
+    }
+    text
+}
+
+/// Progressive passes with final gathering converge: the radiance map's largest radius does
+/// not shrink with the passes' schedule. It did, below the spacing of the points its estimates
+/// are kept at, and gather rays between their discs read no light: in a closed box of albedo
+/// 0.8 the image's mean was 0.98 of the exact value after 2 passes, 0.93 after 32 and 0.68
+/// after 576. Now 0.99 after 32 (the rest is the estimate's bias along the box's edges, where
+/// a disc lies partly on the next wall: README, "Final gathering").
+#[test]
+fn passes_with_final_gathering_do_not_darken() {
+    let dir = tempfile::tempdir().unwrap();
+    let rho = 0.8;
+    let expected = rho * 40.0 / (24.0 * (1.0 - rho));
+    let (ok, stderr, film) = render(
+        dir.path(),
+        &closed_box(rho, 32),
+        &["--gather-rays", "16", "--passes", "32", "--threads", "2"],
+    );
+    assert!(ok, "{stderr}");
+    let ratio = mean(&film.unwrap()) / expected;
+    eprintln!("32 passes with final gathering: {ratio:.4} of the exact mean");
+    assert!((0.97..=1.02).contains(&ratio), "{ratio}");
+}
+
 #[test]
 fn bad_gather_settings_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();

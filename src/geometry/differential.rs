@@ -69,6 +69,20 @@ impl RayDifferential {
         out
     }
 
+    /// Where the ray through the centre of a view-grid cell would have met this ray's surface,
+    /// to first order, for a ray jittered to `jitter` within its cell (`(0.5, 0.5)` its centre)
+    /// and transferred to its hit `hit`: `hit - dP/du (jx - 1/2) - dP/dv (jy - 1/2)`, `hit`
+    /// itself when centred. Progressive passes jitter camera rays; estimates and footprint
+    /// shadow rays that integrate over the cell start from its centre, so that the box filter
+    /// does not widen into a tent.
+    pub fn cell_centre(&self, hit: DVec3, jitter: [f64; 2]) -> DVec3 {
+        let [jx, jy] = jitter;
+        if [jx, jy] == [0.5, 0.5] {
+            return hit;
+        }
+        hit - (self.dp[0] * (jx - 0.5) + self.dp[1] * (jy - 0.5))
+    }
+
     /// Mirror reflection about `frame.n` at the current origin:
     /// `R = D - 2 (D.n) n`, `dR = dD - 2 [ (D.n) dn + d(D.n) n ]`, `d(D.n) = dD.n + D.dn`.
     pub fn reflect(&self, frame: &SurfaceFrame) -> Self {
@@ -179,6 +193,35 @@ pub fn fresnel_dielectric(cos_i: f64, n_from: f64, n_to: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A ray without direction differentials (parallel rays) meets a plane at points linear
+    /// in the cell's coordinates, so the first-order cell centre of a jittered ray is exactly
+    /// where the centre's ray meets it.
+    #[test]
+    fn a_jittered_rays_cell_centre_is_where_the_centres_ray_hits() {
+        let d = DVec3::new(0.1, -1.0, 0.2).normalize();
+        let n = DVec3::new(0.3, 1.0, -0.4).normalize();
+        let cell = RayDifferential {
+            dp: [DVec3::new(0.01, 0.0, 0.0), DVec3::new(0.0, 0.002, 0.013)],
+            ..RayDifferential::new(DVec3::new(0.2, 3.0, -0.1), d)
+        };
+        // A plane through the origin with normal n: t = -(p . n) / (d . n).
+        let hit = |p: DVec3| p + d * (-p.dot(n) / d.dot(n));
+        let centre_hit = hit(cell.p);
+        for jitter in [[0.5, 0.5], [0.1, 0.9], [0.97, 0.03], [0.5, 0.2]] {
+            let p = cell.p + cell.dp[0] * (jitter[0] - 0.5) + cell.dp[1] * (jitter[1] - 0.5);
+            let ray = RayDifferential { p, ..cell };
+            let at = hit(p);
+            let t = (at - p).dot(d);
+            let moved = ray.transfer(t, n);
+            let back = moved.cell_centre(at, jitter);
+            assert!(
+                (back - centre_hit).length() < 1e-12,
+                "{jitter:?}: {back} {centre_hit}"
+            );
+        }
+        assert_eq!(cell.cell_centre(DVec3::ONE, [0.5, 0.5]), DVec3::ONE);
+    }
 
     #[test]
     fn fresnel_at_normal_incidence_is_the_textbook_value() {

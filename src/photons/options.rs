@@ -6,6 +6,10 @@ use crate::photons::footprint::FootprintLimits;
 use crate::photons::map::PathClass;
 use crate::scene::Scene;
 
+/// The footprint guards' default radii, as fractions of the scene's extent
+/// ([`PhotonOptions::radius_limits`]); progressive passes shrink them.
+pub const DEFAULT_RADIUS_LIMITS: (f64, f64) = (1e-5, 0.02);
+
 /// Settings of photon tracing. `PhotonOptions::default()` gives the documented defaults.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PhotonOptions {
@@ -67,7 +71,7 @@ impl Default for PhotonOptions {
             overlap: 32.0,
             global_area_scale: 1.0,
             max_bounces: 1024,
-            radius_limits: (1e-5, 0.02),
+            radius_limits: DEFAULT_RADIUS_LIMITS,
             max_anisotropy: 20.0,
             seed: 0,
             global_aim: 0.0,
@@ -112,6 +116,18 @@ impl PhotonOptions {
                 }
             }
         }
+    }
+
+    /// The largest radius of the radiance map's estimates ([`crate::photons::radiance_map`]):
+    /// the global map's largest footprint radius before any pass shrank it
+    /// ([`DEFAULT_RADIUS_LIMITS`] times [`Scene::extent`]), whatever the pass. Its estimates
+    /// take a fixed 64 photons, so a largest radius shrinking with the passes did not shrink
+    /// their blur: it cut their discs below the spacing of the points they are kept at (every
+    /// fourth photon), and gather rays between the discs read no light. In a closed box of
+    /// albedo 0.8 the image's mean fell to 0.93 of the exact value at 32 passes and 0.68 at
+    /// 576 (0.98 at 2).
+    pub fn radiance_max_radius(&self, scene: &Scene) -> f64 {
+        DEFAULT_RADIUS_LIMITS.1 * scene.extent()
     }
 
     /// The share of the global photons' emissions from point and spot lights aimed at the

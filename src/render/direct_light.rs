@@ -259,10 +259,8 @@ impl DirectLight<'_> {
                 n: 1,
             };
         }
-        // The cell's centre is the hit moved back by the jitter.
-        let [jx, jy] = self.jitter;
         FootprintGrid {
-            centre: v.hit.position - dp0 * (jx - 0.5) - dp1 * (jy - 0.5),
+            centre: v.ray.cell_centre(v.hit.position, self.jitter),
             dp: [dp0, dp1],
             jitter: self.jitter,
             n,

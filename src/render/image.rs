@@ -479,10 +479,10 @@ impl<'a> TileRenderer<'a> {
                     };
                     // The footprint of the ray's cell, to first order: where the cell's centre
                     // ray would have hit (the hit itself when centred).
-                    let mut centred = query;
-                    if [jx, jy] != [0.5, 0.5] {
-                        centred.position -= v.ray.dp[0] * (jx - 0.5) + v.ray.dp[1] * (jy - 0.5);
-                    }
+                    let centred = GatherQuery {
+                        position: v.ray.cell_centre(query.position, [jx, jy]),
+                        ..query
+                    };
                     // The cell's exact footprint where the hit is seen directly, once for
                     // every estimator that integrates over it: prepared below with the
                     // packet's others.

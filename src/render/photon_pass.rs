@@ -81,9 +81,7 @@ pub fn trace_photon_maps(
             radiance: None,
         },
         Err(traced) => {
-            let max_radius = options
-                .class_limits(scene, PathClass::AllDiffuse)
-                .max_radius;
+            let max_radius = options.radiance_max_radius(scene);
             let emitted = counts[1].emitted;
             let radiance = stats.time("radiance map", || {
                 pool.install(|| RadianceMap::new(&traced, emitted, max_radius))
