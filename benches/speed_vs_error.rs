@@ -280,15 +280,19 @@ where
         .x_label_area_size(45)
         .y_label_area_size(65)
         .build_cartesian_2d(
-            (tmin * 0.8..tmax * 1.25).log_scale(),
-            (emin * 0.8..emax * 1.25).log_scale(),
+            (tmin * 0.8..tmax * 1.25)
+                .log_scale()
+                .with_key_points(one_two_five(tmin * 0.8, tmax * 1.25)),
+            (emin * 0.8..emax * 1.25)
+                .log_scale()
+                .with_key_points(one_two_five(emin * 0.8, emax * 1.25)),
         )?;
     chart
         .configure_mesh()
         .x_desc("rendering time (s), log scale")
         .y_desc("caustic relRMSE, log scale")
-        .x_label_formatter(&|v| format!("{v:.2}"))
-        .y_label_formatter(&|v| format!("{v:.2}"))
+        .x_label_formatter(&|v| log_tick(*v))
+        .y_label_formatter(&|v| log_tick(*v))
         .label_style(("sans-serif", 14))
         .draw()?;
     let mut curves: Vec<&str> = Vec::new();
@@ -384,4 +388,28 @@ fn montage(
     }
     image::save_buffer(path, &buffer, w, h, image::ExtendedColorType::Rgb8)?;
     Ok(())
+}
+
+/// The ticks of a log axis from `lo` to `hi`: 1, 2 and 5 times the powers of ten between
+/// (plotters' own start at the first power of ten, so an axis from 0.16 to 1 had none).
+fn one_two_five(lo: f64, hi: f64) -> Vec<f64> {
+    let mut ticks = Vec::new();
+    let mut decade = 10f64.powf(lo.log10().floor());
+    while decade <= hi {
+        for m in [1.0, 2.0, 5.0] {
+            let v = m * decade;
+            if (lo..=hi).contains(&v) {
+                ticks.push(v);
+            }
+        }
+        decade *= 10.0;
+    }
+    ticks
+}
+
+/// A log axis's label at `v` (a tick of [`one_two_five`]), as short as it reads: "0.05", "2",
+/// "20".
+fn log_tick(v: f64) -> String {
+    let places = (-v.log10().floor()).max(0.0) as usize;
+    format!("{v:.places$}")
 }
