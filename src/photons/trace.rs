@@ -15,6 +15,7 @@ use crate::photons::footprint::{footprint, FootprintLimits, Guards};
 use crate::photons::light_path::{DiffuseHit, LightPaths};
 use crate::photons::map::{PathClass, Photon, PhotonMap};
 use crate::photons::options::PhotonOptions;
+use crate::photons::radiance_map::RadianceSample;
 use crate::photons::targets::{specular_targets, DiffuseAim};
 use crate::photons::walls::Walls;
 use crate::scene::Scene;
@@ -455,6 +456,40 @@ impl<'a> PhotonTracer<'a> {
         let mut map = PhotonMap::new(class, photons, counts.emitted, guards);
         map.mirror_power = mirror_power;
         (map, counts)
+    }
+
+    /// The mirror images of the traced photons `block` beyond the walls and edges their
+    /// footprints in the map of `class` run into ([`PhotonOptions::probe_walls`]; none
+    /// without): for the radiance map, whose estimates near a wall are discs hanging past it.
+    pub fn mirror_samples(&self, block: &[TracedPhoton], class: PathClass) -> Vec<RadianceSample> {
+        let Some(walls) = self.walls.as_ref() else {
+            return Vec::new();
+        };
+        let limits = self.options.class_limits(self.scene, class);
+        let mut guards = Guards::default();
+        let mut out = Vec::new();
+        for t in block {
+            let nominal =
+                (self.diffuse_spread * t.path_length).clamp(limits.min_radius, limits.max_radius);
+            let f = footprint(
+                t.ray.dp[0],
+                t.ray.dp[1],
+                t.normal,
+                &limits,
+                nominal,
+                &mut guards,
+            );
+            let p = t.ray.p;
+            if let Some(pair) = walls.nearest(p, t.normal, &f, self.paths.epsilon) {
+                for image in pair.images() {
+                    out.push(RadianceSample {
+                        position: image.point(p, p).as_vec3(),
+                        ..RadianceSample::of(t)
+                    });
+                }
+            }
+        }
+        out
     }
 
     /// The map's photons of the traced photons `block`, in order, each followed by its mirror

@@ -11,6 +11,7 @@ use crate::photons::radiance_map::{RadianceMap, RadianceSample};
 use crate::photons::trace::{emission_stopped, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
+use rayon::prelude::*;
 
 /// Traces both maps on `threads` threads (0 = all), recording a "trace photons" stage (and a
 /// "radiance map" stage with final gathering) and the maps' statistics in `stats`.
@@ -59,15 +60,22 @@ pub fn trace_photon_maps(
             let stop = StopRule::Stored(options.global_photons);
             if options.radiance_map {
                 // Only what the radiance map reads of each photon is kept.
-                let mut samples = Vec::new();
+                let (mut samples, mut mirrors) = (Vec::new(), Vec::new());
                 let g = tracer.trace_photons_into(
                     &global_emitter,
                     PathClass::AllDiffuse,
                     stop,
                     &bar,
-                    |batch| samples.extend(batch.iter().map(RadianceSample::of)),
+                    |batch| {
+                        samples.extend(batch.iter().map(RadianceSample::of));
+                        let images: Vec<Vec<RadianceSample>> = batch
+                            .par_chunks(1 << 9)
+                            .map(|block| tracer.mirror_samples(block, PathClass::AllDiffuse))
+                            .collect();
+                        mirrors.extend(images.into_iter().flatten());
+                    },
                 );
-                (caustic, Err(samples), [c, g])
+                (caustic, Err((samples, mirrors)), [c, g])
             } else {
                 let (global, g) = tracer.build_map(&global_emitter, PathClass::Global, stop, &bar);
                 (caustic, Ok(global), [c, g])
@@ -80,11 +88,11 @@ pub fn trace_photon_maps(
             global,
             radiance: None,
         },
-        Err(traced) => {
+        Err((traced, mirrors)) => {
             let max_radius = options.radiance_max_radius(scene);
             let emitted = counts[1].emitted;
             let radiance = stats.time("radiance map", || {
-                pool.install(|| RadianceMap::new(&traced, emitted, max_radius))
+                pool.install(|| RadianceMap::with_mirrors(&traced, &mirrors, emitted, max_radius))
             });
             PhotonMaps {
                 caustic,
@@ -125,7 +133,14 @@ fn record(
     let asked = [options.caustic_photons, options.global_photons];
     let mean = |p: glam::DVec3| (p.x + p.y + p.z) / 3.0;
     let second = match &maps.radiance {
-        Some(r) => (PathClass::AllDiffuse, mean(r.power), Guards::default()),
+        Some(r) => (
+            PathClass::AllDiffuse,
+            mean(r.power),
+            Guards {
+                mirrored: r.mirrors as u64,
+                ..Guards::default()
+            },
+        ),
         None => (
             PathClass::Global,
             mean(maps.global.total_power()),
