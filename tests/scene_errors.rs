@@ -555,6 +555,17 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
     assert_eq!(names.len(), 2, "only the scene and the link: {names:?}");
 }
 
+/// Writes into `dir` a scene of an 11585 x 11585 camera (2^27 pixels, 23.5 GB to render) with
+/// `shapes` (TOML) and returns its path.
+fn huge_image_scene(dir: &Path, shapes: &str) -> std::path::PathBuf {
+    let scene = dir.join("scene.toml");
+    let camera = CAMERA
+        .replace("width = 32", "width = 11585")
+        .replace("height = 24", "height = 11585");
+    std::fs::write(&scene, format!("{camera}{REST}{shapes}")).unwrap();
+    scene
+}
+
 /// An image whose pixels cannot fit in the memory the process may use is refused before
 /// anything is allocated: at the 2^27-pixel limit a render under a 6 GB limit aborted. The
 /// refusal is the render's, not the scene file's: a tile of it that fits renders, and
@@ -564,11 +575,7 @@ fn outputs_may_not_overwrite_inputs_or_each_other() {
 fn an_image_beyond_the_process_memory_is_refused_at_once() {
     let exe = env!("CARGO_BIN_EXE_photondiff");
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.toml");
-    let camera = CAMERA
-        .replace("width = 32", "width = 11585")
-        .replace("height = 24", "height = 11585");
-    std::fs::write(&scene, format!("{camera}{REST}")).unwrap();
+    let scene = huge_image_scene(dir.path(), "");
     let run = |args: &str| {
         Command::new("sh")
             .arg("-c")
@@ -596,29 +603,20 @@ fn an_image_beyond_the_process_memory_is_refused_at_once() {
         "{stderr}"
     );
     assert_eq!(out.status.code(), Some(1));
-    // A quarter does not fit either (5.0 GB), ...
-    let out = render("-q --tile 0/4");
-    let stderr = left_masked(&out.stderr);
-    assert!(
-        stderr.ends_with(
-            "\nphotondiff: error: --tile: its 33550160 pixels need about 5.9 GB to render \
-             (about 175 bytes each), more than the N GB left of the 3.1 GB this process may \
-             use\n"
-        ),
-        "{stderr}"
-    );
-    // ... nor a seventh (3.3 GB: it passed the check at 150 bytes a pixel, 2.9 GB, and
-    // aborted), ...
-    let out = render("-q --tile 0/7");
-    let stderr = left_masked(&out.stderr);
-    assert!(
-        stderr.ends_with(
-            "\nphotondiff: error: --tile: its 19092080 pixels need about 3.3 GB to render \
-             (about 175 bytes each), more than the N GB left of the 3.1 GB this process may \
-             use\n"
-        ),
-        "{stderr}"
-    );
+    // A quarter does not fit either (5.9 GB), nor a seventh (3.3 GB: it passed the check at
+    // 150 bytes a pixel, 2.9 GB, and aborted), ...
+    for (tile, pixels, gb) in [("0/4", 33550160, "5.9"), ("0/7", 19092080, "3.3")] {
+        let out = render(&format!("-q --tile {tile}"));
+        let stderr = left_masked(&out.stderr);
+        assert!(
+            stderr.ends_with(&format!(
+                "\nphotondiff: error: --tile: its {pixels} pixels need about {gb} GB to render \
+                 (about 175 bytes each), more than the N GB left of the 3.1 GB this process may \
+                 use\n"
+            )),
+            "{stderr}"
+        );
+    }
     // ... a sixteenth does (1.5 GB).
     let out = render("-q --tile 0/16 --footprint-shadow-rays 1");
     assert!(
@@ -672,13 +670,9 @@ fn left_masked(stderr: &[u8]) -> String {
 fn memory_already_held_counts_against_the_image() {
     let exe = env!("CARGO_BIN_EXE_photondiff");
     let dir = tempfile::tempdir().unwrap();
-    let scene = dir.path().join("scene.toml");
-    let camera = CAMERA
-        .replace("width = 32", "width = 11585")
-        .replace("height = 24", "height = 11585");
     let ball = "[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 1.0, 0.0]\nradius = 1.0\n\
                 material = \"white\"\nsegments = 6000\n";
-    std::fs::write(&scene, format!("{camera}{REST}{ball}")).unwrap();
+    let scene = huge_image_scene(dir.path(), ball);
     let out = Command::new("sh")
         .arg("-c")
         .arg(format!(

@@ -11,7 +11,7 @@ use crate::embree::{self, Ray};
 use crate::geometry::differential::RayDifferential;
 use crate::photons::emission::batch::Drawn;
 use crate::photons::emission::{Emission, Emitter};
-use crate::photons::footprint::{footprint, FootprintLimits, Guards};
+use crate::photons::footprint::{footprint, Footprint, FootprintLimits, Guards};
 use crate::photons::light_path::{DiffuseHit, LightPaths};
 use crate::photons::map::{PathClass, Photon, PhotonMap};
 use crate::photons::options::PhotonOptions;
@@ -458,6 +458,20 @@ impl<'a> PhotonTracer<'a> {
         (map, counts)
     }
 
+    /// The footprint of traced photon `t` under `limits`, counting the guards it trips.
+    fn footprint_of(
+        &self,
+        t: &TracedPhoton,
+        limits: &FootprintLimits,
+        guards: &mut Guards,
+    ) -> Footprint {
+        // A photon whose differential degenerated is given the footprint its beam would have
+        // had without focusing: its angular spread times the distance travelled.
+        let nominal =
+            (self.diffuse_spread * t.path_length).clamp(limits.min_radius, limits.max_radius);
+        footprint(t.ray.dp[0], t.ray.dp[1], t.normal, limits, nominal, guards)
+    }
+
     /// The mirror images of the traced photons `block` beyond the walls and edges their
     /// footprints in the map of `class` run into ([`PhotonOptions::probe_walls`]; none
     /// without): for the radiance map, whose estimates near a wall are discs hanging past it.
@@ -469,16 +483,7 @@ impl<'a> PhotonTracer<'a> {
         let mut guards = Guards::default();
         let mut out = Vec::new();
         for t in block {
-            let nominal =
-                (self.diffuse_spread * t.path_length).clamp(limits.min_radius, limits.max_radius);
-            let f = footprint(
-                t.ray.dp[0],
-                t.ray.dp[1],
-                t.normal,
-                &limits,
-                nominal,
-                &mut guards,
-            );
+            let f = self.footprint_of(t, &limits, &mut guards);
             let p = t.ray.p;
             if let Some(pair) = walls.nearest(p, t.normal, &f, self.paths.epsilon) {
                 for image in pair.images() {
@@ -498,18 +503,7 @@ impl<'a> PhotonTracer<'a> {
     fn footprints(&self, block: &[TracedPhoton], limits: &FootprintLimits) -> Footprinted {
         let mut out = Footprinted::default();
         for t in block {
-            // A photon whose differential degenerated is given the footprint its beam would
-            // have had without focusing: its angular spread times the distance travelled.
-            let nominal =
-                (self.diffuse_spread * t.path_length).clamp(limits.min_radius, limits.max_radius);
-            let f = footprint(
-                t.ray.dp[0],
-                t.ray.dp[1],
-                t.normal,
-                limits,
-                nominal,
-                &mut out.guards,
-            );
+            let f = self.footprint_of(t, limits, &mut out.guards);
             let (p, d) = (t.ray.p, t.ray.d);
             out.photons
                 .push(Photon::new(p, t.normal, d, DVec3::ZERO, &f));
