@@ -588,6 +588,18 @@ fn pass_range_reports(scene: &Path, d: &Path, merge_args: &[String]) {
     // The merged ranges' photon maps are the whole run's: counts over all 4 passes (not the
     // first-named part's 3), the power their mean; the seconds a pass weighed by passes.
     let merged = read(&merged);
+    // The noise of the mean, from the merged sums of the whole image: the whole run's (it was
+    // null, and a split run lost its only convergence figure).
+    let noise = |s: &serde_json::Value, key: &str| s["progressive"]["noise"][key].clone();
+    for key in ["whole", "caustic"] {
+        let (a, b) = (noise(&merged, key), noise(&whole, key));
+        let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
+        assert!((a - b).abs() <= 1e-9 * b, "noise {key}: {a} against {b}");
+    }
+    assert_eq!(
+        noise(&merged, "caustic_pixels"),
+        noise(&whole, "caustic_pixels")
+    );
     for (m, w) in merged["photon_maps"]
         .as_array()
         .unwrap()

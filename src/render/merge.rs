@@ -9,6 +9,7 @@
 //! named.
 
 use super::film::Film;
+use super::noise::NoiseEstimate;
 use super::part::Part;
 use super::pass_part::read_pass_sum;
 use super::pass_sum::PassSum;
@@ -32,7 +33,8 @@ pub const PER_PART: &[&str] = &[
     // Each file's own pixels' (`render::checksum`).
     "photondiff/rgb_xxh3",
     "photondiff/sums_xxh3",
-    // The noise estimate of a progressive render is its part's; the whole has none.
+    // The noise estimate of a progressive render is its part's: the whole's is computed again
+    // from the merged sums where they are the whole image's, else it has none.
     "photondiff/passes_stopped_by",
     "photondiff/noise_whole",
     "photondiff/noise_caustic",
@@ -250,6 +252,9 @@ pub fn merge(parts: &[Part]) -> Result<Merged, String> {
         }
     }
     let mut film = Film::new(width, height);
+    // The noise of the mean, where the merged sums are the whole image's (pass ranges without
+    // tiles): the whole run's estimate from its passes. Tiles' sums are each their pixels'.
+    let mut noise = None;
     for &index in &present {
         let of_tile: Vec<usize> = (0..parts.len())
             .filter(|&k| tiles[k].index == index)
@@ -268,10 +273,16 @@ pub fn merge(parts: &[Part]) -> Result<Merged, String> {
                 Some(s) => s.merge(&part_sum),
             }
         }
-        let mean = sum.expect("a tile has parts").mean();
-        copy_window(&mean, part.window, &mut film);
+        let sum = sum.expect("a tile has parts");
+        if part.window == Window::full(width, height) {
+            noise = Some(NoiseEstimate::of(&sum));
+        }
+        copy_window(&sum.mean(), part.window, &mut film);
     }
-    let stats = merge_stats(parts)?;
+    let mut stats = merge_stats(parts)?;
+    if let Some(n) = noise {
+        stats["progressive"]["noise"] = serde_json::to_value(n).map_err(|e| e.to_string())?;
+    }
     let mut metadata: Vec<(String, String)> = first
         .metadata
         .iter()
@@ -279,6 +290,9 @@ pub fn merge(parts: &[Part]) -> Result<Merged, String> {
         .map(|(k, v)| (k.clone(), v.clone()))
         .collect();
     metadata.push(("photondiff/parts".into(), parts.len().to_string()));
+    if let Some(n) = noise {
+        metadata.extend(n.attributes());
+    }
     metadata.push(("photondiff/stats".into(), stats.to_string()));
     Ok(Merged {
         film,

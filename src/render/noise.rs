@@ -53,6 +53,20 @@ impl NoiseEstimate {
         }
     }
 
+    /// Its EXR attributes (`photondiff/noise_whole`, `.._caustic`, `.._caustic_pixels`): a
+    /// render's, and a merge's of pass ranges.
+    pub fn attributes(&self) -> Vec<(String, String)> {
+        let opt = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.6}"));
+        [
+            ("noise_whole", opt(self.whole)),
+            ("noise_caustic", opt(self.caustic)),
+            ("noise_caustic_pixels", self.caustic_pixels.to_string()),
+        ]
+        .into_iter()
+        .map(|(name, value)| (format!("photondiff/{name}"), value))
+        .collect()
+    }
+
     /// E.g. "1.23% (caustic 3.40%)", or "n/a" before two passes.
     pub fn describe(&self) -> String {
         let pct = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{:.2}%", 100.0 * v));

@@ -74,19 +74,17 @@ pub(super) fn exr_metadata(
 
 /// The EXR attributes of a progressive render.
 fn pass_metadata(p: &PassReport) -> Vec<(String, String)> {
-    let opt = |v: Option<f64>| v.map_or("n/a".to_string(), |v| format!("{v:.6}"));
-    [
+    let mut attributes: Vec<(String, String)> = [
         ("passes", p.passes.to_string()),
         ("alpha", p.alpha.to_string()),
         ("global_alpha", p.global_alpha.to_string()),
         ("passes_stopped_by", p.stop.name().to_string()),
-        ("noise_whole", opt(p.noise.whole)),
-        ("noise_caustic", opt(p.noise.caustic)),
-        ("noise_caustic_pixels", p.noise.caustic_pixels.to_string()),
     ]
     .into_iter()
     .map(|(name, value)| (format!("photondiff/{name}"), value))
-    .collect()
+    .collect();
+    attributes.extend(p.noise.attributes());
+    attributes
 }
 
 #[cfg(test)]

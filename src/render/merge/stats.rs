@@ -137,8 +137,8 @@ fn merge_range_maps(parts: &[(Value, u64)]) -> Value {
 /// pass's footprint factor is the smallest of the parts', the seconds per pass their mean
 /// (weighed by their passes, for ranges);
 /// and the noise, which the parts' own estimates do not give (a range's is of its passes, a
-/// tile's of its pixels), is left out (`null`: `photondiff compare` against a reference, or
-/// the merged image's own passes, tell it).
+/// tile's of its pixels), is left out (`null`); [`super::merge`] computes it again from the
+/// merged sums where they are the whole image's.
 fn merge_progressive(reports: &[Value]) -> Value {
     let mut report = reports[0].clone();
     let numbers = |key: &'static str| reports.iter().filter_map(move |r| r.get(key)?.as_f64());
