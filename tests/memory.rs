@@ -385,3 +385,122 @@ fn a_pixel_takes_at_most_what_the_image_checks_assume() {
         "{per_pixel} bytes a pixel at peak ({small} -> {large})"
     );
 }
+
+/// Runs `photondiff` with `args` under an address-space limit of `kib` KiB (`ulimit -v`).
+fn run_limited(kib: u64, args: &str) -> std::process::Output {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    std::process::Command::new("sh")
+        .arg("-c")
+        .arg(format!("ulimit -v {kib}; exec '{exe}' {args}"))
+        .output()
+        .unwrap()
+}
+
+/// A BVH that cannot be built in the memory the process may use is a clear error that says
+/// what needs less, and what it says works. Under an 800 MB address-space limit the ordinary
+/// BVH of a 4.3M-triangle sphere runs out (Embree's "error 4: out of memory" was all a user
+/// read; it needs about 1 GB of address space here), and the compact one it advises fits
+/// (about 650 MB).
+#[test]
+fn a_bvh_beyond_the_process_memory_is_a_clear_error_and_its_advice_fits() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ))
+    .unwrap()
+    .replace("width = 640", "width = 96")
+    .replace("height = 480", "height = 72")
+        + "\n[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.3, 0.0]\nradius = 0.3\n\
+           material = \"floor\"\nsegments = 2000\n";
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    let render = |bvh: &str| {
+        run_limited(
+            800_000,
+            &format!(
+                "render '{}' -o '{}' -q --estimator direct --threads 2 {bvh}",
+                scene.display(),
+                dir.path().join("x.exr").display()
+            ),
+        )
+    };
+    let out = render("--no-bvh-compact");
+    assert_eq!(
+        String::from_utf8_lossy(&out.stderr),
+        format!(
+            "photondiff: error: {}: building the BVH of 4257122 triangles ran out of memory \
+             within the 0.82 GB this process may use; --bvh-compact builds one in about half \
+             the memory\n",
+            scene.display()
+        )
+    );
+    assert_eq!(out.status.code(), Some(1));
+    let out = render("--bvh-compact");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A mesh file whose buffers cannot fit in the memory the process may use is refused, not
+/// aborted: a 10M-triangle PLY under a 250 MB limit aborted with "memory allocation of
+/// 61401636 bytes failed". A binary PLY's header gives the whole need at once; an OBJ's
+/// buffers grow as it is read, and are refused when they can grow no more.
+#[test]
+fn a_mesh_beyond_the_process_memory_is_refused_with_what_it_needs() {
+    let dir = tempfile::tempdir().unwrap();
+    // 10,000,000 vertices (120 MB of positions) and two triangles, under a 100 MB limit.
+    let vertices = 10_000_000u32;
+    let ply = dir.path().join("points.ply");
+    let mut data = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\n\
+         property float y\nproperty float z\nelement face 2\n\
+         property list uchar int vertex_indices\nend_header\n"
+    )
+    .into_bytes();
+    for i in 0..vertices {
+        for c in [i as f32 * 1e-6, (i % 7) as f32, 0.0] {
+            data.extend_from_slice(&c.to_le_bytes());
+        }
+    }
+    for face in [[0i32, 1, 2], [0, 2, 3]] {
+        data.push(3);
+        face.iter()
+            .for_each(|k| data.extend_from_slice(&k.to_le_bytes()));
+    }
+    std::fs::write(&ply, &data).unwrap();
+    drop(data);
+    let out = run_limited(100_000, &format!("info '{}'", ply.display()));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let prefix = format!(
+        "photondiff: error: {}: its 10000000 vertices and 2 faces need 0.12 GB, more than the ",
+        ply.display()
+    );
+    assert!(
+        stderr.starts_with(&prefix)
+            && stderr.ends_with(" GB left of the 0.10 GB this process may use\n"),
+        "{stderr}"
+    );
+    assert_eq!(out.status.code(), Some(1));
+
+    // 7,000,000 vertices of an OBJ: 112 MB of buffers (positions and their normals' slots).
+    let obj = dir.path().join("points.obj");
+    let mut text = String::with_capacity(7_000_000 * 10);
+    for i in 0..7_000_000u32 {
+        text.push_str(if i % 2 == 0 { "v 0 0 0\n" } else { "v 1 0 0\n" });
+    }
+    text.push_str("f 1 2 3\n");
+    std::fs::write(&obj, text).unwrap();
+    let out = run_limited(100_000, &format!("info '{}'", obj.display()));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.starts_with(&format!("photondiff: error: {}: ", obj.display()))
+            && stderr.contains(" vertices read; room for more would need ")
+            && (stderr.ends_with(" GB this process may use\n")
+                || stderr.ends_with(" GB, which the system refused\n")),
+        "{stderr}"
+    );
+    assert_eq!(out.status.code(), Some(1));
+}

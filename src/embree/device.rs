@@ -16,6 +16,10 @@ pub enum EmbreeError {
         /// Embree's message.
         message: String,
     },
+    /// Embree ran out of memory building a BVH: the message says of how many triangles, within
+    /// what limit, and what would need less.
+    #[error("{0}")]
+    BvhOutOfMemory(String),
     /// A mesh handed to the scene builder is malformed (Embree would drop it silently).
     #[error("invalid mesh: {0}")]
     InvalidMesh(String),

@@ -248,9 +248,12 @@ impl SceneBuilder {
         instanced.dedup();
         let builds = instanced.len() + 1;
         let progress = self.progress;
+        let triangles = unique_triangles(&self.geometries);
         let commit = |raw: ffi::RTCScene, done: usize| {
             commit_reporting(raw, progress.as_deref(), done, builds);
-            device.take_error()
+            device
+                .take_error()
+                .map_err(|e| out_of_memory(e, triangles, settings))
         };
         // From here on the scene owns every raw scene made and releases them on drop, whatever
         // fails below.
@@ -325,6 +328,45 @@ impl SceneBuilder {
         scene.coherent_packets = made.is_empty() && !(settings.compact && settings.robust);
         Ok(scene)
     }
+}
+
+/// The triangles of the meshes BVHs are built over: each instanced mesh once.
+fn unique_triangles(geometries: &[Geometry]) -> u64 {
+    let mut meshes: Vec<&Arc<TriangleMesh>> = geometries.iter().map(|g| &g.mesh).collect();
+    meshes.sort_unstable_by_key(|m| Arc::as_ptr(m));
+    meshes.dedup_by_key(|m| Arc::as_ptr(m));
+    meshes.iter().map(|m| m.triangles.len() as u64).sum()
+}
+
+/// Embree's out-of-memory error (`RTC_ERROR_OUT_OF_MEMORY`) during a build, said as what the
+/// user can act on: the BVH of how many triangles, within what limit, and the setting that
+/// needs less (a compact BVH peaks at about half an ordinary one's memory). Other errors pass.
+fn out_of_memory(error: EmbreeError, triangles: u64, settings: BvhSettings) -> EmbreeError {
+    const RTC_ERROR_OUT_OF_MEMORY: u32 = 4;
+    if !matches!(
+        error,
+        EmbreeError::Embree {
+            code: RTC_ERROR_OUT_OF_MEMORY,
+            ..
+        }
+    ) {
+        return error;
+    }
+    let limit = crate::util::memory::total_bytes().map_or(String::new(), |total| {
+        format!(
+            " within the {} this process may use",
+            crate::util::memory::gigabytes(total)
+        )
+    });
+    let advice = if settings.compact {
+        "the BVH is compact already (about 60 bytes a triangle at the build's peak): it needs \
+         fewer triangles or more memory"
+    } else {
+        "--bvh-compact builds one in about half the memory"
+    };
+    EmbreeError::BvhOutOfMemory(format!(
+        "building the BVH of {triangles} triangles ran out of memory{limit}; {advice}"
+    ))
 }
 
 /// What Embree's progress monitor is handed during one build: the report, and the build's

@@ -54,11 +54,22 @@ pub fn short_of(need: u64) -> Option<String> {
     let (total, left) = (total_bytes()?, available_bytes()?);
     (need > left).then(|| {
         format!(
-            "the {:.1} GB left of the {:.1} GB this process may use",
-            left as f64 / 1e9,
-            total as f64 / 1e9
+            "the {} left of the {} this process may use",
+            gigabytes(left),
+            gigabytes(total)
         )
     })
+}
+
+/// Gigabytes as the refusals give them: one decimal, two below one gigabyte so that 60 MB
+/// does not read as "0.0 GB".
+pub fn gigabytes(bytes: u64) -> String {
+    let gb = bytes as f64 / 1e9;
+    if gb < 0.995 {
+        format!("{gb:.2} GB")
+    } else {
+        format!("{gb:.1} GB")
+    }
 }
 
 /// The soft address-space limit (`Max address space` of `/proc/self/limits`), `None` when

@@ -9,6 +9,7 @@ use super::repair::bad_position;
 use super::triangulate::{triangulate, Scratch, Shape};
 use super::MeshReport;
 use crate::embree::TriangleMesh;
+use crate::util::reserve;
 use std::collections::HashMap;
 use std::io::BufRead;
 use std::path::Path;
@@ -159,6 +160,8 @@ impl Builder {
                 if self.positions.len() >= SPLIT as usize - 1 {
                     return Err("too many vertices".into());
                 }
+                reserve::make_room(&mut self.positions, 1, "vertices")?;
+                reserve::make_room(&mut self.first_normal, 1, "vertices")?;
                 self.positions.push(p);
                 self.first_normal.push(UNUSED);
             }
@@ -168,6 +171,7 @@ impl Builder {
                 if let Some(token) = tokens.next() {
                     return Err(format!("'vn' takes 3 numbers, then '{}'", text(token)));
                 }
+                reserve::make_room(&mut self.normals, 1, "normals")?;
                 self.normals.push(n);
             }
             b"f" | b"fo" => self.face(tokens)?,
@@ -201,6 +205,7 @@ impl Builder {
             self.report.short_faces += 1;
             return Ok(());
         }
+        reserve::make_room(&mut self.triangles, n - 2, "triangles")?;
         let (face, positions, triangles) = (&self.face, &self.positions, &mut self.triangles);
         let shape = triangulate(
             n,

@@ -13,6 +13,7 @@ use super::repair::bad_position;
 use super::triangulate::{triangulate, Scratch, Shape};
 use super::MeshReport;
 use crate::embree::TriangleMesh;
+use crate::util::reserve;
 use header::{Element, Format, Header};
 use std::path::Path;
 
@@ -33,7 +34,7 @@ pub fn load(path: &Path, read: &dyn Fn(u64)) -> Result<(TriangleMesh, MeshReport
     if vertices >= u32::MAX as u64 {
         return Err(format!("too many vertices ({vertices}) for 32-bit indices"));
     }
-    let mut sink = Sink::new(&header, &layout, data_size);
+    let mut sink = Sink::new(&header, &layout, data_size)?;
     match header.format {
         Format::Ascii => ascii::read(reader, &header, &layout, &mut sink)?,
         Format::BinaryLittleEndian => {
@@ -172,9 +173,10 @@ pub(crate) struct Sink {
 }
 
 impl Sink {
-    /// Buffers for the mesh of `header`, whose data takes `data_size` bytes, reserved once.
-    fn new(header: &Header, layout: &Layout, data_size: u64) -> Sink {
-        // The vertex count was checked against the file's size: reserving it is safe.
+    /// Buffers for the mesh of `header`, whose data takes `data_size` bytes, reserved once; an
+    /// error where they do not fit in the memory the process may still take.
+    fn new(header: &Header, layout: &Layout, data_size: u64) -> Result<Sink, String> {
+        // The vertex count was checked against the file's size: it is the file's to pay for.
         let vertices = header.elements[layout.vertex].count as usize;
         // Triangles: a face counts only where its record can hold one, so that a header of
         // 60 million empty faces (a byte each, 12 reserved each: 720 MB for a 60 MB file,
@@ -187,17 +189,33 @@ impl Sink {
             _ => list.list.map_or(1, |count| count.size() as u64) + 3 * list.ty.size() as u64,
         };
         let triangles = face.count.min(data_size / per_triangle) as usize;
-        Sink {
-            // One more: the padding Embree reads past the last vertex.
-            positions: Vec::with_capacity(vertices + 1),
-            normals: layout.normal.map(|_| Vec::with_capacity(vertices)),
-            triangles: Vec::with_capacity(triangles),
+        // The whole need first, so that the error gives it rather than a buffer's share of it.
+        let what = format!("its {vertices} vertices and {} faces", face.count);
+        let elements = vertices + 1 + layout.normal.map_or(0, |_| vertices) + triangles;
+        reserve::check(elements as u64 * 12, &what)?;
+        let mut positions = Vec::new();
+        // One more: the padding Embree reads past the last vertex.
+        reserve::reserve_exact(&mut positions, vertices + 1, &what)?;
+        let normals = match layout.normal {
+            Some(_) => {
+                let mut normals = Vec::new();
+                reserve::reserve_exact(&mut normals, vertices, &what)?;
+                Some(normals)
+            }
+            None => None,
+        };
+        let mut reserved = Vec::new();
+        reserve::reserve_exact(&mut reserved, triangles, &what)?;
+        Ok(Sink {
+            positions,
+            normals,
+            triangles: reserved,
             vertex_count: vertices as u64,
             deferred: Vec::new(),
             corners: Vec::new(),
             scratch: Scratch::default(),
             report: MeshReport::default(),
-        }
+        })
     }
 
     /// Adds vertex `i` (in file order).
@@ -248,6 +266,7 @@ impl Sink {
         }
         self.report.polygons += 1;
         if (self.positions.len() as u64) < self.vertex_count {
+            reserve::make_room(&mut self.deferred, n + 3, "numbers of faces to triangulate")?;
             // The faces come first in this file: triangulate once the vertices are known.
             // The face's number in two words, its size, its corners.
             self.deferred
@@ -262,6 +281,7 @@ impl Sink {
     }
 
     fn add_polygon(&mut self, face: u64, corners: &[u32]) -> Result<(), String> {
+        reserve::make_room(&mut self.triangles, corners.len() - 2, "triangles")?;
         let (positions, triangles) = (&self.positions, &mut self.triangles);
         let shape = triangulate(
             corners.len(),
@@ -314,7 +334,10 @@ mod tests {
             );
             let header = header::read(&mut std::io::Cursor::new(text.into_bytes())).unwrap();
             let layout = Layout::new(&header).unwrap();
-            Sink::new(&header, &layout, data_size).triangles.capacity()
+            Sink::new(&header, &layout, data_size)
+                .unwrap()
+                .triangles
+                .capacity()
         };
         // Triangles written in full: 3 vertices of 12 bytes, 1,000 faces of 13.
         let whole = 36 + 1000 * 13;
