@@ -504,3 +504,58 @@ fn a_mesh_beyond_the_process_memory_is_refused_with_what_it_needs() {
     );
     assert_eq!(out.status.code(), Some(1));
 }
+
+/// Caustic photons that cannot fit even at the least a stored one takes while its map is traced
+/// (104 bytes) are refused before tracing, by `render` and `photons`: 2 * 10^7 under a 1.5 GB
+/// limit traced for 15 s and aborted. A scene without caustics stores none, and is not refused.
+#[test]
+fn caustic_photons_beyond_the_process_memory_are_refused_before_tracing() {
+    let dir = tempfile::tempdir().unwrap();
+    let canonical = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml");
+    let out_file = dir.path().join("x.exr");
+    for command in ["render", "photons"] {
+        let out = run_limited(
+            1_500_000,
+            &format!(
+                "{command} '{canonical}' -o '{}' -q --threads 2 --caustic-photons 20000000",
+                out_file
+                    .with_extension(if command == "render" { "exr" } else { "pdm" })
+                    .display()
+            ),
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        let prefix = format!(
+            "photondiff: error: {canonical}: --caustic-photons 20000000: the caustic map needs at \
+             least 2.1 GB while it is traced (104 bytes a photon), more than the "
+        );
+        assert!(
+            stderr.starts_with(&prefix)
+                && stderr.ends_with(" GB left of the 1.5 GB this process may use\n"),
+            "{command}: {stderr}"
+        );
+        assert_eq!(out.status.code(), Some(1));
+    }
+    // The canonical scene with its glass sphere made diffuse: no caustics, so none stored.
+    let text = std::fs::read_to_string(canonical)
+        .unwrap()
+        .replace("material = \"glass\"", "material = \"floor\"");
+    assert!(
+        !text.contains("material = \"glass\""),
+        "the sphere is diffuse now"
+    );
+    let scene = dir.path().join("diffuse.toml");
+    std::fs::write(&scene, text).unwrap();
+    let out = run_limited(
+        1_500_000,
+        &format!(
+            "photons '{}' -o '{}' -q --threads 2 --caustic-photons 20000000 --photons 1000",
+            scene.display(),
+            dir.path().join("x.pdm").display()
+        ),
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

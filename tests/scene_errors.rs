@@ -864,7 +864,8 @@ fn light_path_counts_past_the_cap_are_refused_at_once() {
 
 /// Photon counts past 32-bit indices are refused by the option parser; a count whose maps may
 /// not fit in memory is warned about before tracing starts (a run asked for 4 * 10^9 grew by
-/// 11 MB/s for minutes without a word).
+/// 11 MB/s for minutes without a word), or refused where they are caustic photons that cannot
+/// fit at all.
 #[test]
 fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
     use std::io::{BufRead, BufReader};
@@ -902,7 +903,7 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
         .arg(&scene)
         .arg("-o")
         .arg(&out)
-        .args(["--caustic-photons", "2000000000", "--photons", "0", "-q"])
+        .args(["--photons", "2000000000", "--caustic-photons", "0", "-q"])
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
@@ -932,6 +933,28 @@ fn photon_counts_are_bounded_and_a_count_beyond_memory_is_warned_about() {
         scene.display()
     );
     assert!(line.starts_with(&expected), "{line}");
+    assert!(!out.exists());
+    // Caustic photons, which a scene with caustics stores every one of, are refused when even
+    // their least (104 bytes each) is more than the process may take.
+    let run = Command::new(exe)
+        .arg("photons")
+        .arg(&scene)
+        .arg("-o")
+        .arg(&out)
+        .args(["--caustic-photons", "2000000000", "--photons", "0", "-q"])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(photondiff::util::memory::total_bytes().unwrap() < 208_000_000_000);
+    assert!(
+        stderr.starts_with(&format!(
+            "photondiff: error: {}: --caustic-photons 2000000000: the caustic map needs at \
+             least 208.0 GB while it is traced (104 bytes a photon), more than the ",
+            scene.display()
+        )),
+        "{stderr}"
+    );
+    assert_eq!(run.status.code(), Some(1));
     assert!(!out.exists());
 }
 

@@ -164,6 +164,11 @@ pub fn photon_count(text: &str) -> Result<usize, String> {
 /// against it.
 pub const PEAK_BYTES_PER_PHOTON: u64 = 250;
 
+/// Bytes a stored caustic photon takes at the least while its map is traced: the map's photon
+/// (`photons::map::Photon`, 80) and its power for a single emission (`f64` RGB, 24), both held
+/// until the last photon is traced. A firm floor, where [`PEAK_BYTES_PER_PHOTON`] is a ceiling.
+pub const LEAST_BYTES_PER_CAUSTIC_PHOTON: u64 = 104;
+
 /// Starts recording the trace `--trace` asks for, if it does: its folder is made now, so that
 /// an unwritable path is refused before the work rather than after it.
 pub fn start_trace(trace: Option<&Path>) -> Result<(), String> {
@@ -266,24 +271,49 @@ pub fn print_memory(memory: &mut photondiff::render::stats::MemoryStats, quiet: 
     }
 }
 
-/// Warns, before the photons are traced, when maps of `photons` stored photons may not fit in
-/// this machine's memory (a run asked for 4 * 10^9 grew by 11 MB/s for minutes without a
-/// word). A warning, not an error: an open scene stores far fewer global photons than asked.
-pub fn warn_photon_memory(scene: &Path, photons: usize) {
+/// Refuses, before the photons are traced, caustic photons that cannot fit in the memory the
+/// process may still take even at [`LEAST_BYTES_PER_CAUSTIC_PHOTON`]: a scene with caustics
+/// stores every caustic photon asked for, and 2 * 10^7 of them under a 1.5 GB limit traced for
+/// 15 s and aborted ("memory allocation of 1342177280 bytes failed"). Warns where maps of all
+/// the photons asked for may not fit (at [`PEAK_BYTES_PER_PHOTON`]): a warning, not an error,
+/// because an open scene stores far fewer global photons than asked (a run asked for 4 * 10^9
+/// grew by 11 MB/s for minutes without a word).
+pub fn check_photon_memory(
+    path: &Path,
+    scene: &photondiff::scene::Scene,
+    options: &photondiff::photons::options::PhotonOptions,
+) -> Result<(), String> {
+    use photondiff::util::memory;
+    let caustic = options.caustic_photons;
+    let stores_caustics = caustic > 0
+        && scene.has_diffuse_surface()
+        && !photondiff::photons::emission::Emitter::caustic(scene, 1, options.overlap, 0)
+            .is_empty();
+    let least = caustic as u64 * LEAST_BYTES_PER_CAUSTIC_PHOTON;
+    if let Some(left) = memory::short_of(least).filter(|_| stores_caustics) {
+        return Err(format!(
+            "{}: --caustic-photons {caustic}: the caustic map needs at least {} while it is \
+             traced ({LEAST_BYTES_PER_CAUSTIC_PHOTON} bytes a photon), more than {left}",
+            path.display(),
+            memory::gigabytes(least)
+        ));
+    }
+    let photons = options.global_photons + caustic;
     let need = photons as u64 * PEAK_BYTES_PER_PHOTON;
-    if let Some(total) = photondiff::util::memory::total_bytes() {
+    if let Some(total) = memory::total_bytes() {
         if need > total / 2 {
             let gb = |b: u64| b as f64 / 1e9;
             photondiff::stderr_line!(
                 "photondiff: warning: {}: {photons} photons may need up to {:.1} GB while their \
                  maps are built (about {PEAK_BYTES_PER_PHOTON} bytes a photon); this process may \
                  use {:.1} GB",
-                scene.display(),
+                path.display(),
                 gb(need),
                 gb(total)
             );
         }
     }
+    Ok(())
 }
 
 /// Warns when the camera is inside glass, where light tracing (`render --estimator

@@ -91,10 +91,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
             .build(&scene, &args.scene, args.threads, !args.quiet)
     })?;
     stats.memory = MemoryStats::after_build(&scene, &device, bvh, mark);
-    super::warn_photon_memory(
-        &args.scene,
-        options.global_photons + options.caustic_photons,
-    );
+    super::check_photon_memory(&args.scene, &scene, &options)?;
     let progress = !args.quiet;
     let maps = trace_photon_maps(
         &scene,

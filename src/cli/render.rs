@@ -323,10 +323,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         .with_progress(!args.quiet)
         .with_window(window);
     if kind.reads_maps() {
-        super::warn_photon_memory(
-            &args.scene,
-            photon_options.global_photons + photon_options.caustic_photons,
-        );
+        super::check_photon_memory(&args.scene, &scene, &photon_options)?;
     }
     let settings = EstimatorSettings {
         kind,
