@@ -17,7 +17,10 @@ pub fn facing(n: DVec3, d: DVec3) -> DVec3 {
 /// The surface at `hit` for a ray differential `at` already transferred to it: the shading
 /// frame (normal facing the ray, and its differentials from the barycentric derivatives) and
 /// the geometric normal facing the ray. Where the shading normal faces away from the ray (an
-/// artefact of interpolated normals at silhouettes) the flat geometric frame is used.
+/// artefact of interpolated normals at silhouettes), or would reflect it into the surface, the
+/// flat geometric frame is used: on a coarse mesh with vertex normals a ray reflected about
+/// the interpolated normal can head into the geometric surface, and was traced inside it (a
+/// 6-segment mirror sphere sent 5% of the rays hitting it into itself; none at 512 segments).
 pub fn surface_frame(hit: &Hit, at: &RayDifferential) -> (SurfaceFrame, DVec3) {
     let d = at.d;
     let ng = facing(hit.geometric_normal, d);
@@ -27,7 +30,9 @@ pub fn surface_frame(hit: &Hit, at: &RayDifferential) -> (SurfaceFrame, DVec3) {
         -1.0
     };
     let ns = hit.shading_normal * side;
-    let frame = if ns.dot(d) < 0.0 {
+    let d_dot_ns = ns.dot(d);
+    let reflected = d - ns * (2.0 * d_dot_ns);
+    let frame = if d_dot_ns < 0.0 && reflected.dot(ng) > 0.0 {
         SurfaceFrame {
             n: ns,
             dn: {
@@ -63,5 +68,53 @@ pub fn continuation(ray: &RayDifferential, epsilon: f64) -> Ray {
         direction: ray.d,
         tnear: epsilon,
         tfar: f64::INFINITY,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A hit on the plane z = 0 whose interpolated normal leans 30 degrees towards +x, with a
+    /// normal derivative so that the shading frame's differentials are not zero.
+    fn leaning_hit() -> Hit {
+        Hit {
+            t: 1.0,
+            geom_id: 0,
+            prim_id: 0,
+            u: 0.25,
+            v: 0.25,
+            position: DVec3::ZERO,
+            geometric_normal: DVec3::Z,
+            shading_normal: DVec3::new(0.5, 0.0, 0.75f64.sqrt()),
+            dn_du: DVec3::new(0.1, 0.0, 0.0),
+            dn_dv: DVec3::ZERO,
+            dp_du: DVec3::X,
+            dp_dv: DVec3::Y,
+        }
+    }
+
+    /// The shading frame serves where the ray reflected about it leaves the surface; where it
+    /// would head into the surface (the ray meets the leaning normal from its low side at a
+    /// slant), the flat frame does, and the ray reflected about it leaves.
+    #[test]
+    fn a_shading_normal_that_would_reflect_into_the_surface_gives_way_to_the_flat_one() {
+        let hit = leaning_hit();
+        let mut at = RayDifferential::new(DVec3::ZERO, -DVec3::Z);
+        at.dp = [DVec3::X * 1e-3, DVec3::Y * 1e-3];
+        let (frame, ng) = surface_frame(&hit, &at);
+        assert_eq!((frame.n, ng), (hit.shading_normal, DVec3::Z));
+        assert!(frame.dn[0] != DVec3::ZERO);
+        assert!(at.reflect(&frame).d.z > 0.0);
+
+        at.d = DVec3::new(0.6, 0.0, -0.8);
+        // About the shading normal this ray would go on into the surface.
+        let into = at.d - hit.shading_normal * (2.0 * at.d.dot(hit.shading_normal));
+        assert!(at.d.dot(hit.shading_normal) < 0.0 && into.z < 0.0, "{into}");
+        let (frame, _) = surface_frame(&hit, &at);
+        assert_eq!(frame.n, DVec3::Z);
+        assert_eq!(frame.dn, [DVec3::ZERO; 2]);
+        let out = at.reflect(&frame).d;
+        assert!((out - DVec3::new(0.6, 0.0, 0.8)).length() < 1e-12, "{out}");
     }
 }

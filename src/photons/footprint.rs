@@ -86,8 +86,12 @@ pub fn footprint(
     let (sxx, sxy, syy) = (a1 * a1 + b1 * b1, a1 * a2 + b1 * b2, a2 * a2 + b2 * b2);
     let mean = 0.5 * (sxx + syy);
     let diff = (0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy).sqrt();
-    let (l1, l2) = (mean + diff, mean - diff);
     let det = (a1 * b2 - a2 * b1).abs();
+    // The smaller eigenvalue from the product of both (det F^2), not `mean - diff`, which
+    // cancels to zero or below once the short axis is under about 1e-8 of the long one: such
+    // a needle (near a focal line) took the round fallback of the nominal radius.
+    let l1 = mean + diff;
+    let l2 = det / l1 * det;
     let (mut s1, mut s2, e1) = if l1.is_finite() && l2.is_finite() && det > 0.0 && l2 > 0.0 {
         // Eigenvector of the larger eigenvalue.
         let e = if sxy.abs() > 1e-300 {
@@ -175,6 +179,17 @@ mod tests {
             ),
             (1, 1, 1, 0)
         );
+        // A needle whose short axis is 3e-9 of its long one, askew in the tangent frame: the
+        // smaller eigenvalue cancelled to zero and took the fallback; it is a needle, clamped.
+        let (a, b) = (
+            DVec3::new(0.6, 0.0, 0.8) * 0.5,
+            DVec3::new(-0.8, 0.0, 0.6) * 1.5e-9,
+        );
+        let mut needle = Guards::default();
+        let f = footprint(a, b, DVec3::Y, &limits, 0.1, &mut needle);
+        assert_eq!((needle.fallback, needle.clamped_min), (0, 1), "{needle:?}");
+        assert!((f.radius - 0.5).abs() < 1e-12, "{}", f.radius);
+        assert!((f.area - 0.5 * 0.05).abs() < 1e-12, "{}", f.area);
         let f = footprint(DVec3::X, DVec3::X, DVec3::Y, &limits, 0.1, &mut g);
         assert_eq!(g.fallback, 1);
         assert!((f.area - 0.01).abs() < 1e-12);
