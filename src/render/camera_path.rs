@@ -41,7 +41,8 @@ pub struct ViewPaths<'a> {
     pub embree: &'a embree::Scene,
     /// Maximum number of specular bounces.
     pub max_depth: u32,
-    /// Offset of secondary ray origins off a surface, along its normal.
+    /// Length skipped at the start of rays leaving a surface (`tnear`: the ray starts on the
+    /// surface, see `geometry::surface::continuation`).
     pub epsilon: f64,
 }
 
