@@ -88,7 +88,8 @@ fn main() {
             );
             t_trace[k].push(start.elapsed().as_secs_f64());
             let start = Instant::now();
-            let (map, _) = pool.install(|| tracer.build_map(emitter, class, stop, &hidden));
+            let (map, _) =
+                pool.install(|| tracer.build_map(emitter, class, stop, &hidden).unwrap());
             t_map[k].push(start.elapsed().as_secs_f64());
             built.push(map);
             let start = Instant::now();

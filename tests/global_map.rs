@@ -173,12 +173,14 @@ fn canonical_global_map(bounce_aim: f64, emission_aim: f64) -> (usize, f64, f64)
     let tracer = PhotonTracer::new(&scene, &embree, &options);
     let (photons, overlap) = (options.global_photons, options.overlap);
     let emitter = Emitter::global_aimed(&scene, photons, overlap, 0, emission_aim);
-    let (map, counts) = tracer.build_map(
-        &emitter,
-        PathClass::Global,
-        StopRule::Emitted(emissions),
-        &indicatif::ProgressBar::hidden(),
-    );
+    let (map, counts) = tracer
+        .build_map(
+            &emitter,
+            PathClass::Global,
+            StopRule::Emitted(emissions),
+            &indicatif::ProgressBar::hidden(),
+        )
+        .unwrap();
     assert_eq!(counts.emitted, emissions as u64);
     let power: Vec<f64> = map.photons().iter().map(|p| f64::from(p.power.y)).collect();
     let total: f64 = power.iter().sum();

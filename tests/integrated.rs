@@ -316,12 +316,14 @@ fn a_vanishing_view_footprint_gives_the_photon_differential_estimate() {
     };
     let tracer = PhotonTracer::new(&scene, &embree, &options);
     let emitter = Emitter::caustic(&scene, 5000, options.overlap, 0);
-    let (map, _) = tracer.build_map(
-        &emitter,
-        PathClass::Caustic,
-        StopRule::Stored(5000),
-        &indicatif::ProgressBar::hidden(),
-    );
+    let (map, _) = tracer
+        .build_map(
+            &emitter,
+            PathClass::Caustic,
+            StopRule::Stored(5000),
+            &indicatif::ProgressBar::hidden(),
+        )
+        .unwrap();
     let pd = PhotonDifferentialEstimate { map: &map };
     let integrated = IntegratedEstimate { map: &map };
     let mut c = GatherCounts::default();

@@ -559,3 +559,34 @@ fn caustic_photons_beyond_the_process_memory_are_refused_before_tracing() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+/// A photon map that outgrows the memory the process may use is an error naming the map, not
+/// an abort: 6 * 10^6 caustic photons under a 1 GB limit pass the check before tracing (their
+/// least, 0.62 GB, fits) and run out while their map grows (10^7 under 1.5 GB aborted with
+/// "memory allocation of 1342177280 bytes failed").
+#[test]
+fn a_photon_map_outgrowing_the_process_memory_is_an_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let canonical = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml");
+    let out = run_limited(
+        1_000_000,
+        &format!(
+            "render '{canonical}' -o '{}' -q --threads 2 --passes 1 --caustic-photons 6000000 \
+             --photons 1000",
+            dir.path().join("x.exr").display()
+        ),
+    );
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let error = stderr
+        .lines()
+        .find_map(|l| l.strip_prefix("photondiff: error: caustic map: "))
+        .unwrap_or_else(|| panic!("{stderr}"));
+    assert!(
+        (error.contains(" photons stored; room for more would need ")
+            || error.starts_with("the columns and tree of its "))
+            && error.ends_with(" GB left of the 1.0 GB this process may use"),
+        "{stderr}"
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert!(!dir.path().join("x.exr").exists());
+}

@@ -111,12 +111,14 @@ fn photon_differential_irradiance_matches_a_point_light() {
     };
     let tracer = PhotonTracer::new(&scene, &embree, &options);
     let emitter = Emitter::global(&scene, options.global_photons, options.overlap, 1);
-    let (map, counts) = tracer.build_map(
-        &emitter,
-        PathClass::Direct,
-        StopRule::Emitted(800_000),
-        &hidden(),
-    );
+    let (map, counts) = tracer
+        .build_map(
+            &emitter,
+            PathClass::Direct,
+            StopRule::Emitted(800_000),
+            &hidden(),
+        )
+        .unwrap();
     // The plane's share of the sphere of directions: a square of half-side a at distance h
     // subtends 4 asin(a^2 / (a^2 + h^2)).
     let fraction = 4.0 * (400.0f64 / 404.0).asin() / (4.0 * PI);
@@ -247,6 +249,7 @@ fn caustic_map(scene: &Scene, embree: &embree::Scene, threads: usize, photons: u
                 StopRule::Stored(photons),
                 &hidden(),
             )
+            .unwrap()
             .0
     })
 }
@@ -809,12 +812,14 @@ fn a_far_reaching_floor_does_not_blur_the_caustic() {
         let options = PhotonOptions::default();
         let tracer = PhotonTracer::new(&scene, &embree, &options);
         let emitter = Emitter::caustic(&scene, 4000, options.overlap, 0);
-        let (map, counts) = tracer.build_map(
-            &emitter,
-            PathClass::Caustic,
-            StopRule::Stored(4000),
-            &hidden(),
-        );
+        let (map, counts) = tracer
+            .build_map(
+                &emitter,
+                PathClass::Caustic,
+                StopRule::Stored(4000),
+                &hidden(),
+            )
+            .unwrap();
         (
             scene.extent(),
             map.guards.clamped_min as f64 / counts.stored as f64,
@@ -881,6 +886,7 @@ fn a_caustic_map_that_stores_nothing_stops_early() {
         let stop = StopRule::Stored(asked);
         tracer
             .build_map(&emitter, PathClass::Caustic, stop, &hidden())
+            .unwrap()
             .1
     };
     let cap = max_emissions(PathClass::Caustic, asked);

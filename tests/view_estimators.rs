@@ -46,12 +46,14 @@ fn caustic_queries(footprint_scale: f64) -> (PhotonMap, Vec<GatherQuery>) {
     };
     let tracer = PhotonTracer::new(&scene, &embree, &options);
     let emitter = Emitter::caustic(&scene, 5000, options.overlap, 0);
-    let (map, _) = tracer.build_map(
-        &emitter,
-        PathClass::Caustic,
-        StopRule::Stored(5000),
-        &indicatif::ProgressBar::hidden(),
-    );
+    let (map, _) = tracer
+        .build_map(
+            &emitter,
+            PathClass::Caustic,
+            StopRule::Stored(5000),
+            &indicatif::ProgressBar::hidden(),
+        )
+        .unwrap();
     let camera = &scene.camera;
     let mut queries = Vec::new();
     for y in (250..330).step_by(7) {

@@ -375,12 +375,14 @@ fn direct_map(walls: &[&str], light: DVec3, overlap: f64, probe_walls: bool) -> 
     };
     let tracer = PhotonTracer::new(&scene, &embree, &options);
     let emitter = Emitter::global(&scene, options.global_photons, options.overlap, 1);
-    let (map, counts) = tracer.build_map(
-        &emitter,
-        PathClass::Direct,
-        StopRule::Emitted(options.global_photons),
-        &indicatif::ProgressBar::hidden(),
-    );
+    let (map, counts) = tracer
+        .build_map(
+            &emitter,
+            PathClass::Direct,
+            StopRule::Emitted(options.global_photons),
+            &indicatif::ProgressBar::hidden(),
+        )
+        .unwrap();
     (map, counts.stored)
 }
 

@@ -79,6 +79,12 @@ impl PathClass {
     }
 }
 
+/// Bytes [`PhotonMap::new`] adds a photon to the photons it is given, at most at once: the
+/// footprint boxes (24) and the tree's build while the boxes are held, then the columns (84),
+/// the leaf order (4) and the tree's nodes (about 4). The map's build checks this much is left
+/// before it starts.
+pub const BUILD_BYTES_PER_PHOTON: u64 = 100;
+
 /// A photon map: photons of one [`PathClass`] and the trees over their positions.
 pub struct PhotonMap {
     /// The class of paths stored.

@@ -13,12 +13,13 @@ use crate::photons::emission::batch::Drawn;
 use crate::photons::emission::{Emission, Emitter};
 use crate::photons::footprint::{footprint, Footprint, FootprintLimits, Guards};
 use crate::photons::light_path::{DiffuseHit, LightPaths};
-use crate::photons::map::{PathClass, Photon, PhotonMap};
+use crate::photons::map::{PathClass, Photon, PhotonMap, BUILD_BYTES_PER_PHOTON};
 use crate::photons::options::PhotonOptions;
 use crate::photons::radiance_map::RadianceSample;
 use crate::photons::targets::{specular_targets, DiffuseAim};
 use crate::photons::walls::Walls;
 use crate::scene::Scene;
+use crate::util::reserve;
 use crate::util::rng::Rng;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -60,13 +61,23 @@ struct Footprinted {
 }
 
 impl Footprinted {
-    /// `next`'s photons after these.
-    fn append(&mut self, next: Footprinted) {
+    /// `next`'s photons after these, or an error where there is no room for them: a map of
+    /// ten million photons under a 1.5 GB limit aborted here, growing its photons to 1.3 GB.
+    fn append(&mut self, next: Footprinted) -> Result<(), String> {
+        let n = next.photons.len();
+        reserve::make_room(&mut self.photons, n, "photons stored")?;
+        reserve::make_room(&mut self.powers, n, "photons stored")?;
+        reserve::make_room(
+            &mut self.mirrors,
+            next.mirrors.len(),
+            "mirror photons stored",
+        )?;
         let base = self.photons.len() as u32;
         self.photons.extend_from_slice(&next.photons);
         self.powers.extend_from_slice(&next.powers);
         self.mirrors.extend(next.mirrors.iter().map(|i| i + base));
         self.guards.add(&next.guards);
+        Ok(())
     }
 }
 
@@ -259,23 +270,25 @@ impl<'a> PhotonTracer<'a> {
     ) -> (Vec<TracedPhoton>, TraceCounts) {
         let mut traced = Vec::new();
         let counts = self.trace_photons_into(emitter, class, stop, progress, |batch| {
-            traced.extend_from_slice(batch)
+            traced.extend_from_slice(batch);
+            Ok(())
         });
-        (traced, counts)
+        (traced, counts.expect("collecting the photons refuses none"))
     }
 
     /// [`PhotonTracer::trace_photons`], giving the photons to `take` in order as they come, a
     /// batch of emissions' worth at a time, rather than holding them all: a map's builder
     /// keeps what it needs of each (a traced photon, its whole differential in `f64`, is 232
-    /// bytes).
+    /// bytes). Tracing stops at the first error `take` returns (no room for the photons), and
+    /// returns it.
     pub fn trace_photons_into(
         &self,
         emitter: &Emitter,
         class: PathClass,
         stop: StopRule,
         progress: &indicatif::ProgressBar,
-        mut take: impl FnMut(&[TracedPhoton]),
-    ) -> TraceCounts {
+        mut take: impl FnMut(&[TracedPhoton]) -> Result<(), String>,
+    ) -> Result<TraceCounts, String> {
         // Emissions are traced in batches (each split into fixed chunks, one per task, so the
         // packets and hence the results do not depend on the number of threads) and taken in
         // index order until the map is complete.
@@ -333,7 +346,7 @@ impl<'a> PhotonTracer<'a> {
                     }
                     false
                 };
-                take(&traced);
+                take(&traced)?;
                 traced.clear();
                 // The progress bar moves once per batch: it reads the clock on every move.
                 progress.inc(match stop {
@@ -350,7 +363,7 @@ impl<'a> PhotonTracer<'a> {
             }
         }
         counts.stored = stored as u64;
-        counts
+        Ok(counts)
     }
 
     /// Traces emission `index` of `emitter` alone, with the random stream [`trace_photons`]
@@ -424,7 +437,7 @@ impl<'a> PhotonTracer<'a> {
         class: PathClass,
         stop: StopRule,
         progress: &indicatif::ProgressBar,
-    ) -> (PhotonMap, TraceCounts) {
+    ) -> Result<(PhotonMap, TraceCounts), String> {
         let limits = self.options.class_limits(self.scene, class);
         let mut all = Footprinted::default();
         let counts = self.trace_photons_into(emitter, class, stop, progress, |batch| {
@@ -433,10 +446,9 @@ impl<'a> PhotonTracer<'a> {
                 .par_chunks(1 << 9)
                 .map(|block| self.footprints(block, &limits))
                 .collect();
-            for block in blocks {
-                all.append(block);
-            }
+            blocks.into_iter().try_for_each(|block| all.append(block))
         });
+        let counts = counts.map_err(|e| format!("{} map: {e}", class.name()))?;
         let scale = 1.0 / counts.emitted.max(1) as f64;
         let Footprinted {
             mut photons,
@@ -453,9 +465,15 @@ impl<'a> PhotonTracer<'a> {
             .iter()
             .map(|&i| photons[i as usize].power.as_dvec3())
             .sum();
+        let what = format!(
+            "{} map: the columns and tree of its {} photons",
+            class.name(),
+            photons.len()
+        );
+        reserve::check(photons.len() as u64 * BUILD_BYTES_PER_PHOTON, &what)?;
         let mut map = PhotonMap::new(class, photons, counts.emitted, guards);
         map.mirror_power = mirror_power;
-        (map, counts)
+        Ok((map, counts))
     }
 
     /// The footprint of traced photon `t` under `limits`, counting the guards it trips.

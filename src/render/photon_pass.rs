@@ -11,7 +11,15 @@ use crate::photons::radiance_map::{RadianceMap, RadianceSample};
 use crate::photons::trace::{emission_stopped, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
+use crate::util::reserve;
 use rayon::prelude::*;
+
+/// What the global photons were traced into: the global map, or what the radiance map of
+/// final gathering reads of each photon and of its mirrors (the map is made after).
+enum Global {
+    Map(Box<PhotonMap>),
+    Radiance(Vec<RadianceSample>, Vec<RadianceSample>),
+}
 
 /// Traces both maps on `threads` threads (0 = all), recording a "trace photons" stage (and a
 /// "radiance map" stage with final gathering) and the maps' statistics in `stats`.
@@ -47,7 +55,7 @@ pub fn trace_photon_maps(
                 PathClass::Caustic,
                 StopRule::Stored(options.caustic_photons),
                 &bar,
-            );
+            )?;
             drop(span);
             let _span = crate::util::trace::span("global map");
             let global_emitter = Emitter::global_aimed(
@@ -67,28 +75,34 @@ pub fn trace_photon_maps(
                     stop,
                     &bar,
                     |batch| {
+                        let what = "photons stored for the radiance map";
+                        reserve::make_room(&mut samples, batch.len(), what)?;
                         samples.extend(batch.iter().map(RadianceSample::of));
                         let images: Vec<Vec<RadianceSample>> = batch
                             .par_chunks(1 << 9)
                             .map(|block| tracer.mirror_samples(block, PathClass::AllDiffuse))
                             .collect();
+                        let more = images.iter().map(Vec::len).sum();
+                        reserve::make_room(&mut mirrors, more, "mirror photons stored")?;
                         mirrors.extend(images.into_iter().flatten());
+                        Ok(())
                     },
-                );
-                (caustic, Err((samples, mirrors)), [c, g])
+                )?;
+                Ok((caustic, Global::Radiance(samples, mirrors), [c, g]))
             } else {
-                let (global, g) = tracer.build_map(&global_emitter, PathClass::Global, stop, &bar);
-                (caustic, Ok(global), [c, g])
+                let (global, g) =
+                    tracer.build_map(&global_emitter, PathClass::Global, stop, &bar)?;
+                Ok::<_, String>((caustic, Global::Map(Box::new(global)), [c, g]))
             }
         })
-    });
+    })?;
     let maps = match global {
-        Ok(global) => PhotonMaps {
+        Global::Map(global) => PhotonMaps {
             caustic,
-            global,
+            global: *global,
             radiance: None,
         },
-        Err((traced, mirrors)) => {
+        Global::Radiance(traced, mirrors) => {
             let max_radius = options.radiance_max_radius(scene);
             let emitted = counts[1].emitted;
             let radiance = stats.time("radiance map", || {

@@ -31,8 +31,9 @@ pub fn reserve_exact<T>(v: &mut Vec<T>, additional: usize, what: &str) -> Result
 }
 
 /// Makes room for `more` elements in `v`, growing it as a `Vec` grows (to twice its capacity
-/// at least) but through [`reserve_exact`]'s checks: for buffers that grow as a file is read.
-/// `what` names the elements ("triangles"); the error counts those read so far.
+/// at least) but through [`reserve_exact`]'s checks: for buffers that grow as a file is read or
+/// photons are traced. `what` says what the elements are so far ("triangles read"); the error
+/// counts them: "2097152 vertices read; room for more would need 0.03 GB, more than ...".
 #[inline]
 pub fn make_room<T>(v: &mut Vec<T>, more: usize, what: &str) -> Result<(), String> {
     if v.capacity() - v.len() >= more {
@@ -48,7 +49,7 @@ fn grow<T>(v: &mut Vec<T>, more: usize, what: &str) -> Result<(), String> {
     reserve_exact(
         v,
         target - have,
-        &format!("{have} {what} read; room for more would"),
+        &format!("{have} {what}; room for more would"),
     )
 }
 
@@ -63,7 +64,7 @@ mod tests {
         let mut reallocations = 0;
         for i in 0..100_000u32 {
             let before = v.capacity();
-            make_room(&mut v, 1, "numbers").unwrap();
+            make_room(&mut v, 1, "numbers counted").unwrap();
             reallocations += (v.capacity() != before) as u32;
             v.push(i);
         }

@@ -160,8 +160,8 @@ impl Builder {
                 if self.positions.len() >= SPLIT as usize - 1 {
                     return Err("too many vertices".into());
                 }
-                reserve::make_room(&mut self.positions, 1, "vertices")?;
-                reserve::make_room(&mut self.first_normal, 1, "vertices")?;
+                reserve::make_room(&mut self.positions, 1, "vertices read")?;
+                reserve::make_room(&mut self.first_normal, 1, "vertices read")?;
                 self.positions.push(p);
                 self.first_normal.push(UNUSED);
             }
@@ -171,7 +171,7 @@ impl Builder {
                 if let Some(token) = tokens.next() {
                     return Err(format!("'vn' takes 3 numbers, then '{}'", text(token)));
                 }
-                reserve::make_room(&mut self.normals, 1, "normals")?;
+                reserve::make_room(&mut self.normals, 1, "normals read")?;
                 self.normals.push(n);
             }
             b"f" | b"fo" => self.face(tokens)?,
@@ -205,7 +205,7 @@ impl Builder {
             self.report.short_faces += 1;
             return Ok(());
         }
-        reserve::make_room(&mut self.triangles, n - 2, "triangles")?;
+        reserve::make_room(&mut self.triangles, n - 2, "triangles read")?;
         let (face, positions, triangles) = (&self.face, &self.positions, &mut self.triangles);
         let shape = triangulate(
             n,

@@ -266,7 +266,11 @@ impl Sink {
         }
         self.report.polygons += 1;
         if (self.positions.len() as u64) < self.vertex_count {
-            reserve::make_room(&mut self.deferred, n + 3, "numbers of faces to triangulate")?;
+            reserve::make_room(
+                &mut self.deferred,
+                n + 3,
+                "numbers of faces to triangulate read",
+            )?;
             // The faces come first in this file: triangulate once the vertices are known.
             // The face's number in two words, its size, its corners.
             self.deferred
@@ -281,7 +285,7 @@ impl Sink {
     }
 
     fn add_polygon(&mut self, face: u64, corners: &[u32]) -> Result<(), String> {
-        reserve::make_room(&mut self.triangles, corners.len() - 2, "triangles")?;
+        reserve::make_room(&mut self.triangles, corners.len() - 2, "triangles read")?;
         let (positions, triangles) = (&self.positions, &mut self.triangles);
         let shape = triangulate(
             corners.len(),
