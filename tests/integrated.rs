@@ -17,11 +17,9 @@ use photondiff::estimate::{
 };
 use photondiff::geometry::disc_integral::{classify, mean, Overlap, MIN_WIDTH};
 use photondiff::geometry::surface::transfer_to;
-use photondiff::photons::emission::Emitter;
 use photondiff::photons::footprint::Guards;
 use photondiff::photons::map::{PathClass, PhotonMap};
 use photondiff::photons::options::PhotonOptions;
-use photondiff::photons::trace::{PhotonTracer, StopRule};
 use photondiff::reference::metrics::{rel_rmse, Regions};
 use photondiff::render::stats::Stats;
 use photondiff::render::{render, trace_photon_maps, RenderOptions};
@@ -310,20 +308,7 @@ fn a_vanishing_view_footprint_gives_the_photon_differential_estimate() {
     let scene = canonical();
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
-    let options = PhotonOptions {
-        caustic_photons: 5000,
-        ..PhotonOptions::default()
-    };
-    let tracer = PhotonTracer::new(&scene, &embree, &options);
-    let emitter = Emitter::caustic(&scene, 5000, options.overlap, 0);
-    let (map, _) = tracer
-        .build_map(
-            &emitter,
-            PathClass::Caustic,
-            StopRule::Stored(5000),
-            &indicatif::ProgressBar::hidden(),
-        )
-        .unwrap();
+    let map = common::caustic_map(&scene, &embree, 5000);
     let pd = PhotonDifferentialEstimate { map: &map };
     let integrated = IntegratedEstimate { map: &map };
     let mut c = GatherCounts::default();

@@ -396,6 +396,24 @@ fn run_limited(kib: u64, args: &str) -> std::process::Output {
         .unwrap()
 }
 
+/// The canonical scene at `width` x `height` with a second, diffuse sphere of 4,257,122
+/// triangles (2000 segments): its ordinary BVH needs about 1 GB of address space, its compact
+/// one about 650 MB.
+fn scene_with_big_sphere(dir: &Path, width: u32, height: u32) -> PathBuf {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ))
+    .unwrap()
+    .replace("width = 640", &format!("width = {width}"))
+    .replace("height = 480", &format!("height = {height}"))
+        + "\n[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.3, 0.0]\nradius = 0.3\n\
+           material = \"floor\"\nsegments = 2000\n";
+    let scene = dir.join("scene.toml");
+    std::fs::write(&scene, text).unwrap();
+    scene
+}
+
 /// A BVH that cannot be built in the memory the process may use is a clear error that says
 /// what needs less, and what it says works. Under an 800 MB address-space limit the ordinary
 /// BVH of a 4.3M-triangle sphere runs out (Embree's "error 4: out of memory" was all a user
@@ -404,17 +422,7 @@ fn run_limited(kib: u64, args: &str) -> std::process::Output {
 #[test]
 fn a_bvh_beyond_the_process_memory_is_a_clear_error_and_its_advice_fits() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/caustic-sphere.toml"
-    ))
-    .unwrap()
-    .replace("width = 640", "width = 96")
-    .replace("height = 480", "height = 72")
-        + "\n[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.3, 0.0]\nradius = 0.3\n\
-           material = \"floor\"\nsegments = 2000\n";
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, text).unwrap();
+    let scene = scene_with_big_sphere(dir.path(), 96, 72);
     let render = |bvh: &str| {
         run_limited(
             800_000,
@@ -451,17 +459,7 @@ fn a_bvh_beyond_the_process_memory_is_a_clear_error_and_its_advice_fits() {
 #[test]
 fn an_image_is_checked_again_with_the_bvh_held() {
     let dir = tempfile::tempdir().unwrap();
-    let text = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/scenes/caustic-sphere.toml"
-    ))
-    .unwrap()
-    .replace("width = 640", "width = 2000")
-    .replace("height = 480", "height = 1500")
-        + "\n[[shapes]]\ntype = \"sphere\"\ncenter = [0.0, 0.3, 0.0]\nradius = 0.3\n\
-           material = \"floor\"\nsegments = 2000\n";
-    let scene = dir.path().join("scene.toml");
-    std::fs::write(&scene, text).unwrap();
+    let scene = scene_with_big_sphere(dir.path(), 2000, 1500);
     let out = run_limited(
         1_000_000,
         &format!(

@@ -2,6 +2,8 @@
 //! differentials against the photon-differential estimate, polygon intersection properties, and
 //! finite, non-negative images from every estimator on the canonical scene.
 
+mod common;
+
 use glam::{DVec2, DVec3, Vec3};
 use photondiff::embree::{Device, Ray};
 use photondiff::estimate::coplanar::CoplanarEstimate;
@@ -13,10 +15,8 @@ use photondiff::estimate::{
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::geometry::polygon::{area_centroid, convex_hull, intersect_convex};
 use photondiff::geometry::surface::transfer_to;
-use photondiff::photons::emission::Emitter;
-use photondiff::photons::map::{PathClass, PhotonMap};
+use photondiff::photons::map::PhotonMap;
 use photondiff::photons::options::PhotonOptions;
-use photondiff::photons::trace::{PhotonTracer, StopRule};
 use photondiff::render::stats::Stats;
 use photondiff::render::trace_photon_maps;
 use photondiff::render::{render, RenderOptions};
@@ -40,20 +40,7 @@ fn caustic_queries(footprint_scale: f64) -> (PhotonMap, Vec<GatherQuery>) {
     let scene = canonical();
     let device = Device::new().unwrap();
     let embree = scene.build_embree(&device).unwrap();
-    let options = PhotonOptions {
-        caustic_photons: 5000,
-        ..PhotonOptions::default()
-    };
-    let tracer = PhotonTracer::new(&scene, &embree, &options);
-    let emitter = Emitter::caustic(&scene, 5000, options.overlap, 0);
-    let (map, _) = tracer
-        .build_map(
-            &emitter,
-            PathClass::Caustic,
-            StopRule::Stored(5000),
-            &indicatif::ProgressBar::hidden(),
-        )
-        .unwrap();
+    let map = common::caustic_map(&scene, &embree, 5000);
     let camera = &scene.camera;
     let mut queries = Vec::new();
     for y in (250..330).step_by(7) {

@@ -178,3 +178,29 @@ pub fn closed_sphere(material: &str, segments: u32) -> String {
          material = \"w\"\nsegments = {segments}\n"
     )
 }
+
+/// The caustic map of `photons` stored photons (default options otherwise, seed 0) of `scene`.
+pub fn caustic_map(
+    scene: &photondiff::scene::Scene,
+    embree: &photondiff::embree::Scene,
+    photons: usize,
+) -> photondiff::photons::map::PhotonMap {
+    use photondiff::photons::trace::{PhotonTracer, StopRule};
+    use photondiff::photons::{emission::Emitter, map::PathClass, options::PhotonOptions};
+    let options = PhotonOptions {
+        caustic_photons: photons,
+        ..PhotonOptions::default()
+    };
+    let tracer = PhotonTracer::new(scene, embree, &options);
+    let emitter = Emitter::caustic(scene, photons, options.overlap, 0);
+    let hidden = indicatif::ProgressBar::hidden();
+    let (map, _) = tracer
+        .build_map(
+            &emitter,
+            PathClass::Caustic,
+            StopRule::Stored(photons),
+            &hidden,
+        )
+        .unwrap();
+    map
+}
