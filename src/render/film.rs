@@ -27,9 +27,9 @@ pub fn check_image_memory(
     let need = pixels.saturating_mul(bytes_per_pixel);
     match memory::short_of(need) {
         Some(left) => Err(format!(
-            "{what} need about {:.1} GB {doing} (about {bytes_per_pixel} bytes each), more \
-             than {left}",
-            need as f64 / 1e9
+            "{what} need about {} {doing} (about {bytes_per_pixel} bytes each), more than \
+             {left}",
+            memory::gigabytes(need)
         )),
         None => Ok(()),
     }

@@ -47,14 +47,28 @@ pub fn available_bytes() -> Option<u64> {
     [machine, address_space, group].into_iter().flatten().min()
 }
 
-/// Where `need` bytes are more than this process may still take ([`available_bytes`]), what
-/// it may take, as the refusals say it: "the 2.9 GB left of the 3.1 GB this process may use";
-/// `None` where they fit or no limit is known.
+/// What the checks keep free beyond the need they check: the many small allocations a run
+/// makes that no check sees (each chunk's photon paths, each tile's buffers, the threads'
+/// stacks). Without it a render whose BVH left a few tens of MB of its limit passed every
+/// check and aborted on a 32 KB allocation while tracing photons.
+pub const HEADROOM: u64 = 64 << 20;
+
+/// Where `need` bytes (and the [`HEADROOM`]) are more than this process may still take
+/// ([`available_bytes`]), what it may take, as the refusals say it: "the 2.9 GB left of the 3.1
+/// GB this process may use"; `None` where they fit or no limit is known.
 pub fn short_of(need: u64) -> Option<String> {
     let (total, left) = (total_bytes()?, available_bytes()?);
-    (need > left).then(|| {
+    (need.saturating_add(HEADROOM) > left).then(|| {
+        let kept = if need <= left {
+            format!(
+                ", less the {} kept for the run's small allocations",
+                gigabytes(HEADROOM)
+            )
+        } else {
+            String::new()
+        };
         format!(
-            "the {} left of the {} this process may use",
+            "the {} left of the {} this process may use{kept}",
             gigabytes(left),
             gigabytes(total)
         )
@@ -62,10 +76,12 @@ pub fn short_of(need: u64) -> Option<String> {
 }
 
 /// Gigabytes as the refusals give them: one decimal, two below one gigabyte so that 60 MB
-/// does not read as "0.0 GB".
+/// does not read as "0.0 GB", and megabytes below 10 MB ("4.2 MB", not "0.00 GB").
 pub fn gigabytes(bytes: u64) -> String {
     let gb = bytes as f64 / 1e9;
-    if gb < 0.995 {
+    if gb < 0.00995 {
+        format!("{:.1} MB", bytes as f64 / 1e6)
+    } else if gb < 0.995 {
         format!("{gb:.2} GB")
     } else {
         format!("{gb:.1} GB")

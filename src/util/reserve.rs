@@ -86,5 +86,6 @@ mod tests {
         assert_eq!(v.capacity(), 0);
         assert_eq!(gigabytes(61_401_636), "0.06 GB");
         assert_eq!(gigabytes(3_070_000_000), "3.1 GB");
+        assert_eq!(gigabytes(4_194_304), "4.2 MB");
     }
 }
