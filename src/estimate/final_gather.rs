@@ -30,7 +30,7 @@ use super::{GatherCounts, GatherQuery, PhotonDifferentialEstimate, RadianceEstim
 use crate::embree;
 use crate::geometry::differential::{GlassInterface, RayDifferential};
 use crate::geometry::sampling::sample_cosine;
-use crate::geometry::surface::{continuation, facing, surface_frame, transfer_to};
+use crate::geometry::surface::{continuation, facing, mirror_frame, surface_frame, transfer_to};
 use crate::photons::map::PhotonMap;
 use crate::photons::radiance_map::RadianceMap;
 use crate::scene::{Material, Scene};
@@ -128,7 +128,7 @@ impl FinalGather<'_> {
             // The ray starts at `ray.p` (its offset is `tnear`): `t` is the segment's length.
             length += hit.t;
             let at_hit = transfer_to(&ray, &hit);
-            let (frame, _) = surface_frame(&hit, &at_hit);
+            let (frame, ng) = surface_frame(&hit, &at_hit);
             match *self.scene.material(hit.geom_id) {
                 Material::Diffuse { albedo } => {
                     let n = facing(hit.geometric_normal, ray.d);
@@ -146,7 +146,7 @@ impl FinalGather<'_> {
                 Material::Emitter { .. } => return DVec3::ZERO,
                 Material::Mirror { reflectance } => {
                     weight *= reflectance;
-                    ray = at_hit.reflect(&frame);
+                    ray = at_hit.reflect(&mirror_frame(frame, ng, ray.d));
                 }
                 Material::Glass { ior } => {
                     let glass = GlassInterface::new(ray.d, hit.geometric_normal, frame.n, ior);

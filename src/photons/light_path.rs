@@ -7,7 +7,7 @@
 use crate::embree::{self, Hit, Ray};
 use crate::geometry::differential::{GlassInterface, RayDifferential};
 use crate::geometry::sampling::sample_cosine;
-use crate::geometry::surface::{continuation, surface_frame, transfer_to};
+use crate::geometry::surface::{continuation, mirror_frame, surface_frame, transfer_to};
 use crate::photons::emission::{round_beam, Emission, Launch};
 use crate::photons::targets::DiffuseAim;
 use crate::scene::{Material, Scene};
@@ -337,7 +337,7 @@ impl LightPaths<'_> {
                     return false;
                 }
                 state.power *= reflectance / q;
-                state.ray = at.reflect(&frame);
+                state.ray = at.reflect(&mirror_frame(frame, ng, at.d));
                 state.specular += 1;
                 state.specular_run += 1;
                 state.specular_run < MAX_SPECULAR_RUN

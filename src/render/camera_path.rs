@@ -6,7 +6,7 @@
 
 use crate::embree::{self, Hit};
 use crate::geometry::differential::{GlassInterface, RayDifferential, Refraction};
-use crate::geometry::surface::{continuation, surface_frame, transfer_to};
+use crate::geometry::surface::{continuation, mirror_frame, surface_frame, transfer_to};
 use crate::render::stats::RayCounts;
 use crate::scene::{Material, Scene};
 use glam::DVec3;
@@ -73,7 +73,7 @@ impl ViewPaths<'_> {
         let Some(hit) = hit else { return };
         let at_hit = transfer_to(ray, &hit);
         let d = ray.d;
-        let (frame, _) = surface_frame(&hit, &at_hit);
+        let (frame, ng) = surface_frame(&hit, &at_hit);
         match *self.scene.material(hit.geom_id) {
             Material::Diffuse { albedo } => vertices.push(DiffuseVertex {
                 hit,
@@ -89,7 +89,7 @@ impl ViewPaths<'_> {
                 }
             }
             Material::Mirror { reflectance } => {
-                let reflected = at_hit.reflect(&frame);
+                let reflected = at_hit.reflect(&mirror_frame(frame, ng, d));
                 self.branch(
                     reflected,
                     weight * reflectance,
