@@ -114,6 +114,27 @@ pub struct Device {
     pub(super) handle: Arc<DeviceHandle>,
 }
 
+/// What a failed `rtcNewDevice` says, from Embree's error `code` and the memory this process
+/// may use (`limit`). Under an address-space limit (`ulimit -v`) device creation runs out of
+/// memory (`RTC_ERROR_OUT_OF_MEMORY`, 4), which is not a CPU Embree cannot run on
+/// (`RTC_ERROR_UNSUPPORTED_CPU`, 5): "is the CPU supported?" sent a user under a 150 MB limit
+/// the wrong way.
+fn creation_failure(code: u32, limit: Option<u64>) -> String {
+    match code {
+        4 => {
+            let within = limit.map_or(String::new(), |t| {
+                format!(
+                    " within the {} this process may use",
+                    crate::util::memory::gigabytes(t)
+                )
+            });
+            format!("rtcNewDevice ran out of memory{within}")
+        }
+        5 => "rtcNewDevice failed: this CPU is not supported by this Embree build".into(),
+        _ => "rtcNewDevice failed".into(),
+    }
+}
+
 impl Device {
     /// The version of the Embree library in use as Embree reports it, e.g. "4.3.3"; always the
     /// version of the headers in [`BACKEND`](super::BACKEND) (the device refuses any other).
@@ -158,9 +179,10 @@ impl Device {
         if raw.is_null() {
             // SAFETY: a null device asks for the error of the last failed device creation.
             let code = unsafe { ffi::rtcGetDeviceError(std::ptr::null_mut()) };
+            let message = creation_failure(code.0, crate::util::memory::total_bytes());
             return Err(EmbreeError::Embree {
                 code: code.0,
-                message: "rtcNewDevice failed (is the CPU supported by this Embree build?)".into(),
+                message,
             });
         }
         // Headers of one version and a library of another disagree on struct layouts: refuse.
@@ -207,5 +229,26 @@ impl Device {
                 memory,
             }),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::creation_failure;
+
+    /// Out of memory is said as such, with the limit where one is known (the message a tiny
+    /// scene under `ulimit -v 150000` gets); an unsupported CPU as such.
+    #[test]
+    fn a_device_that_runs_out_of_memory_says_so_not_that_the_cpu_is_unsupported() {
+        assert_eq!(
+            creation_failure(4, Some(150_000 * 1024)),
+            "rtcNewDevice ran out of memory within the 0.15 GB this process may use"
+        );
+        assert_eq!(creation_failure(4, None), "rtcNewDevice ran out of memory");
+        assert_eq!(
+            creation_failure(5, Some(1 << 30)),
+            "rtcNewDevice failed: this CPU is not supported by this Embree build"
+        );
+        assert_eq!(creation_failure(1, None), "rtcNewDevice failed");
     }
 }
