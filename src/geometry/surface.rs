@@ -50,9 +50,15 @@ pub fn surface_frame(hit: &Hit, at: &RayDifferential) -> (SurfaceFrame, DVec3) {
 /// head into the surface, where the flat frame serves. On a coarse mesh with vertex normals
 /// the interpolated normal can lean so far that it does, and the ray was traced inside the
 /// mirror and out into its shadow (a 6-segment mirror sphere sent 5% of the rays hitting it
-/// into itself, none at 512 segments; its shadow held 2.2 times the light). Glass keeps the
-/// shading frame for both its branches: the same fallback there made a 6-segment glass ball
-/// trap its paths (2.3 times the photon rays, a dark rim).
+/// into itself, none at 512 segments; its shadow held 2.2 times the light).
+///
+/// Glass takes it for its reflected branch alone (Fresnel reflection and total internal
+/// reflection); its refracted branch bends about the shading frame. Against a fine sphere's
+/// light-traced reference, the floor in the shadow of 6, 12 and 24-segment glass spheres held
+/// 2.71, 1.50 and 1.11 times the fine sphere's light with the shading frame for both branches
+/// and 2.60, 1.41 and 1.09 with this, the caustic unchanged. Taking the flat frame for both
+/// branches instead trapped paths in a 6-segment ball's facets (2.3 times the photon rays);
+/// this rule does not (3.65 rays a caustic emission against 3.57).
 pub fn mirror_frame(frame: SurfaceFrame, ng: DVec3, d: DVec3) -> SurfaceFrame {
     let reflected = d - frame.n * (2.0 * d.dot(frame.n));
     if reflected.dot(ng) > 0.0 {
@@ -112,8 +118,7 @@ mod tests {
 
     /// A mirror reflects about the shading frame where the ray reflected about it leaves the
     /// surface; where it would head into the surface (the ray meets the leaning normal from
-    /// its low side at a slant), about the flat frame, and the ray leaves. Glass keeps the
-    /// shading frame there.
+    /// its low side at a slant), about the flat frame, and the ray leaves.
     #[test]
     fn a_mirror_whose_shading_normal_would_reflect_into_the_surface_uses_the_flat_one() {
         let hit = leaning_hit();
@@ -135,5 +140,41 @@ mod tests {
         assert_eq!(mirror.dn, [DVec3::ZERO; 2]);
         let out = at.reflect(&mirror).d;
         assert!((out - DVec3::new(0.6, 0.0, 0.8)).length() < 1e-12, "{out}");
+    }
+
+    /// Glass takes the rule branch by branch: where the leaning normal would reflect the ray
+    /// into the surface, its reflected branch (drawn by Fresnel) leaves about the flat frame,
+    /// and its refracted branch still bends about the shading normal, into the glass; where it
+    /// would not, both branches are the shading frame's, as before.
+    #[test]
+    fn glass_reflects_about_the_mirror_frame_and_refracts_about_the_shading_one() {
+        use crate::geometry::differential::GlassInterface;
+        let hit = leaning_hit();
+        let mut at = RayDifferential::new(DVec3::ZERO, DVec3::new(0.6, 0.0, -0.8));
+        at.dp = [DVec3::X * 1e-3, DVec3::Y * 1e-3];
+        let (frame, ng) = surface_frame(&hit, &at);
+        let glass = GlassInterface::new(at.d, hit.geometric_normal, frame.n, 1.5);
+        assert!(glass.reflectance > 0.0 && glass.reflectance < 1.0);
+        let mirror = mirror_frame(frame, ng, at.d);
+        let reflected = at.through_glass(&mirror, &frame, &glass, 0.0);
+        let refracted = at.through_glass(&mirror, &frame, &glass, 0.999);
+        assert!((reflected.d - DVec3::new(0.6, 0.0, 0.8)).length() < 1e-12);
+        let bent = match at.refract(&frame, glass.n_from, glass.n_to) {
+            crate::geometry::differential::Refraction::Transmitted(t) => t,
+            _ => unreachable!("no total internal reflection entering glass"),
+        };
+        assert_eq!(refracted, bent);
+        assert!(refracted.d.z < 0.0, "{}", refracted.d);
+
+        // Straight down the shading frame serves both branches.
+        at.d = -DVec3::Z;
+        let (frame, ng) = surface_frame(&hit, &at);
+        let mirror = mirror_frame(frame, ng, at.d);
+        assert_eq!(mirror, frame);
+        let glass = GlassInterface::new(at.d, hit.geometric_normal, frame.n, 1.5);
+        assert_eq!(
+            at.through_glass(&mirror, &frame, &glass, 0.0),
+            at.reflect(&frame)
+        );
     }
 }

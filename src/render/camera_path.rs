@@ -103,9 +103,10 @@ impl ViewPaths<'_> {
             Material::Glass { ior } => {
                 let glass = GlassInterface::new(d, hit.geometric_normal, frame.n, ior);
                 let f = glass.reflectance;
+                let mirror = mirror_frame(frame, ng, d);
                 match at_hit.refract(&frame, glass.n_from, glass.n_to) {
                     Refraction::Transmitted(t) => {
-                        let reflected = at_hit.reflect(&frame);
+                        let reflected = at_hit.reflect(&mirror);
                         self.branch(
                             reflected,
                             weight * f,
@@ -125,7 +126,8 @@ impl ViewPaths<'_> {
                             tally,
                         );
                     }
-                    Refraction::TotalInternalReflection(r) => {
+                    Refraction::TotalInternalReflection(_) => {
+                        let r = at_hit.reflect(&mirror);
                         self.branch(r, weight, depth, sample, vertices, radiance, tally);
                     }
                 }
