@@ -137,7 +137,7 @@ impl RayDifferential {
     /// (reflected about `reflect_about` under total internal reflection), so that the carried
     /// power needs no weight. The two frames are the surface's at the hit; they differ only
     /// where a shading normal would reflect the ray into the surface
-    /// (`geometry::surface::glass_frames`).
+    /// (`geometry::surface::mirror_frame`).
     pub fn through_glass(
         &self,
         reflect_about: &SurfaceFrame,
@@ -150,6 +150,9 @@ impl RayDifferential {
         } else {
             match self.refract(refract_about, g.n_from, g.n_to) {
                 Refraction::Transmitted(t) => t,
+                // `refract` reflected about its own frame; again only where that is not
+                // the one to reflect about.
+                Refraction::TotalInternalReflection(r) if reflect_about == refract_about => r,
                 Refraction::TotalInternalReflection(_) => self.reflect(reflect_about),
             }
         }

@@ -126,8 +126,13 @@ impl ViewPaths<'_> {
                             tally,
                         );
                     }
-                    Refraction::TotalInternalReflection(_) => {
-                        let r = at_hit.reflect(&mirror);
+                    Refraction::TotalInternalReflection(r) => {
+                        // `refract` reflected about the shading frame.
+                        let r = if mirror == frame {
+                            r
+                        } else {
+                            at_hit.reflect(&mirror)
+                        };
                         self.branch(r, weight, depth, sample, vertices, radiance, tally);
                     }
                 }
