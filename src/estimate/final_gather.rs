@@ -150,8 +150,7 @@ impl FinalGather<'_> {
                 }
                 Material::Glass { ior } => {
                     let glass = GlassInterface::new(ray.d, hit.geometric_normal, frame.n, ior);
-                    let mirror = mirror_frame(frame, ng, ray.d);
-                    ray = at_hit.through_glass(&mirror, &frame, &glass, rng.uniform());
+                    ray = at_hit.through_glass(&frame, &glass, rng.uniform());
                 }
             }
             if weight.max_element() <= 0.0 {

@@ -132,28 +132,16 @@ impl RayDifferential {
         Refraction::Transmitted(out)
     }
 
-    /// Through glass `g` at this hit: reflected about `reflect_about` when `u` (uniform in
-    /// [0, 1)) falls below the Fresnel reflectance, refracted about `refract_about` otherwise
-    /// (reflected about `reflect_about` under total internal reflection), so that the carried
-    /// power needs no weight. The two frames are the surface's at the hit; they differ only
-    /// where a shading normal would reflect the ray into the surface
-    /// (`geometry::surface::mirror_frame`).
-    pub fn through_glass(
-        &self,
-        reflect_about: &SurfaceFrame,
-        refract_about: &SurfaceFrame,
-        g: &GlassInterface,
-        u: f64,
-    ) -> Self {
+    /// Through glass `g` at this hit (`frame` its surface): reflected when `u` (uniform in
+    /// [0, 1)) falls below the Fresnel reflectance, refracted otherwise, so that the carried
+    /// power needs no weight.
+    pub fn through_glass(&self, frame: &SurfaceFrame, g: &GlassInterface, u: f64) -> Self {
         if u < g.reflectance {
-            self.reflect(reflect_about)
+            self.reflect(frame)
         } else {
-            match self.refract(refract_about, g.n_from, g.n_to) {
+            match self.refract(frame, g.n_from, g.n_to) {
                 Refraction::Transmitted(t) => t,
-                // `refract` reflected about its own frame; again only where that is not
-                // the one to reflect about.
-                Refraction::TotalInternalReflection(r) if reflect_about == refract_about => r,
-                Refraction::TotalInternalReflection(_) => self.reflect(reflect_about),
+                Refraction::TotalInternalReflection(r) => r,
             }
         }
     }

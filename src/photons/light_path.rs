@@ -344,8 +344,7 @@ impl LightPaths<'_> {
             }
             Material::Glass { ior } => {
                 let glass = GlassInterface::new(at.d, hit.geometric_normal, frame.n, ior);
-                let mirror = mirror_frame(frame, ng, at.d);
-                state.ray = at.through_glass(&mirror, &frame, &glass, rng.uniform());
+                state.ray = at.through_glass(&frame, &glass, rng.uniform());
                 state.specular += 1;
                 state.specular_run += 1;
                 state.specular_run < MAX_SPECULAR_RUN

@@ -103,10 +103,9 @@ impl ViewPaths<'_> {
             Material::Glass { ior } => {
                 let glass = GlassInterface::new(d, hit.geometric_normal, frame.n, ior);
                 let f = glass.reflectance;
-                let mirror = mirror_frame(frame, ng, d);
                 match at_hit.refract(&frame, glass.n_from, glass.n_to) {
                     Refraction::Transmitted(t) => {
-                        let reflected = at_hit.reflect(&mirror);
+                        let reflected = at_hit.reflect(&frame);
                         self.branch(
                             reflected,
                             weight * f,
@@ -127,12 +126,6 @@ impl ViewPaths<'_> {
                         );
                     }
                     Refraction::TotalInternalReflection(r) => {
-                        // `refract` reflected about the shading frame.
-                        let r = if mirror == frame {
-                            r
-                        } else {
-                            at_hit.reflect(&mirror)
-                        };
                         self.branch(r, weight, depth, sample, vertices, radiance, tally);
                     }
                 }
