@@ -10,7 +10,7 @@
 //! Run: `cargo bench --bench photons`; `PHOTONDIFF_SCENE=scenes/cornell-glass.toml cargo bench
 //! --bench photons` times another scene's photons the same way (the canonical scene's global
 //! photons mostly leave it after one bounce, a closed scene's bounce until Russian roulette
-//! ends them).
+//! ends them). `PHOTONDIFF_REPEATS` (default 7) sets the repetitions, more for a profile.
 
 use glam::DVec3;
 use photondiff::embree::{Device, RawRays, Ray};
@@ -26,11 +26,10 @@ use std::path::Path;
 use std::time::Instant;
 
 mod common;
-use common::{median, ratio_spread};
-
-const REPEATS: usize = 7;
+use common::{env_or, median, ratio_spread};
 
 fn main() {
+    let repeats: usize = env_or("PHOTONDIFF_REPEATS", 7).max(1);
     let path = std::env::var_os("PHOTONDIFF_SCENE").map_or_else(
         || Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/caustic-sphere.toml"),
         std::path::PathBuf::from,
@@ -82,7 +81,7 @@ fn main() {
     let mut t_raw1 = vec![Vec::new(); maps.len()];
     let mut t_raw16 = vec![Vec::new(); maps.len()];
     let mut built = Vec::new();
-    for _ in 0..REPEATS {
+    for _ in 0..repeats {
         built.clear();
         for (k, &(_, emitter, class, stop)) in maps.iter().enumerate() {
             // The photons are handed over a batch at a time, as to the map's builder, and
@@ -117,7 +116,7 @@ fn main() {
         }
     }
     println!(
-        "\n## Photon tracing, {} (one thread, median of {REPEATS})\n",
+        "\n## Photon tracing, {} (one thread, median of {repeats})\n",
         path.display()
     );
     println!(
@@ -205,7 +204,7 @@ fn main() {
     ];
     let mut times = vec![Vec::new(); estimators.len()];
     let mut counts = vec![GatherCounts::default(); estimators.len()];
-    for _ in 0..REPEATS {
+    for _ in 0..repeats {
         for (k, (_, _, e)) in estimators.iter().enumerate() {
             let mut c = GatherCounts::default();
             let start = Instant::now();
@@ -219,7 +218,7 @@ fn main() {
         }
     }
     println!(
-        "\n## Gathers at {} floor points (one thread, median of {REPEATS})\n",
+        "\n## Gathers at {} floor points (one thread, median of {repeats})\n",
         queries.len()
     );
     println!("| estimate | map | gathers/s | photons found per gather | used per gather |");

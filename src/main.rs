@@ -103,8 +103,11 @@ fn main() -> ExitCode {
         None => Ok(()),
     });
     match result {
-        // Stopped early by Ctrl-C (the conventional 128 + SIGINT), with what was done written.
-        Ok(()) if photondiff::util::interrupt::honoured() => ExitCode::from(130),
+        // Stopped early by Ctrl-C (the conventional 128 + SIGINT; 143 for SIGTERM), with what
+        // was done written.
+        Ok(()) if photondiff::util::interrupt::honoured() => {
+            ExitCode::from(photondiff::util::interrupt::exit_status())
+        }
         Ok(()) => ExitCode::SUCCESS,
         Err(message) => {
             photondiff::stderr_line!("photondiff: error: {message}");
@@ -115,9 +118,10 @@ fn main() -> ExitCode {
                 );
             }
             cli::remove_created_folders();
-            // Stopped by Ctrl-C before anything could be written: 128 + SIGINT all the same.
+            // Stopped by a signal before anything could be written: 128 + its number all the
+            // same.
             match photondiff::util::interrupt::requested() {
-                true => ExitCode::from(130),
+                true => ExitCode::from(photondiff::util::interrupt::exit_status()),
                 false => ExitCode::FAILURE,
             }
         }

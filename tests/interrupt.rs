@@ -129,12 +129,14 @@ fn the_first_ctrl_c_keeps_the_passes_done() {
 }
 
 /// SIGTERM (a batch system's time limit: Slurm sends it, then SIGKILL after a grace period) is
-/// taken as Ctrl-C: the passes done are written. It used to end the process with nothing.
+/// taken as Ctrl-C: the passes done are written. It used to end the process with nothing. The
+/// status is 128 + SIGTERM, as a shell reports a process the signal ended (until stop 60 it was
+/// Ctrl-C's 130, and a script could not tell its scheduler's limit from a user's Ctrl-C).
 #[test]
 fn a_termination_signal_keeps_the_passes_done() {
     let dir = tempfile::tempdir().unwrap();
     let (status, stderr) = run_and_signal(dir.path(), SCENE, &[], 1, "TERM");
-    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert_eq!(status.code(), Some(143), "{stderr}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.path().join("stats.json")).unwrap())
             .unwrap();
@@ -155,7 +157,7 @@ fn merging_an_interrupted_tile_warns_of_its_passes() {
     let dir = tempfile::tempdir().unwrap();
     let extra = ["--tile", "0/1", "--passes", "100000"];
     let (status, stderr) = run_and_signal(dir.path(), SCENE, &extra, 1, "TERM");
-    assert_eq!(status.code(), Some(130), "{stderr}");
+    assert_eq!(status.code(), Some(143), "{stderr}");
     let img = dir.path().join("img.exr");
     let part = photondiff::render::part::read_part(&img).unwrap();
     let passes = part.metadata["photondiff/passes"].clone();
@@ -350,6 +352,17 @@ fn command_interrupted(
     scene: &Path,
     wait_ms: u64,
 ) -> (ExitStatus, String) {
+    command_signalled(command, output, scene, wait_ms, "INT")
+}
+
+/// [`command_interrupted`] with another signal.
+fn command_signalled(
+    command: &str,
+    output: &Path,
+    scene: &Path,
+    wait_ms: u64,
+    signal: &str,
+) -> (ExitStatus, String) {
     let mut child = Command::new(env!("CARGO_BIN_EXE_photondiff"))
         .args([command, "--quiet", "--threads", "1", "-o"])
         .arg(output)
@@ -359,7 +372,7 @@ fn command_interrupted(
         .spawn()
         .unwrap();
     std::thread::sleep(Duration::from_millis(wait_ms));
-    interrupt(&child, "INT");
+    interrupt(&child, signal);
     let status = wait(&mut child);
     let mut stderr = String::new();
     std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
@@ -368,25 +381,52 @@ fn command_interrupted(
 
 /// A Ctrl-C while the scene loads exits at once: there is nothing to keep. The scene file is
 /// a named pipe nobody writes, so the loading never ends: before, the request waited for it
-/// (for a large scene, tens of seconds of loading and BVH building), here for ever.
+/// (for a large scene, tens of seconds of loading and BVH building), here for ever. SIGHUP and
+/// SIGTERM do the same, each with its own status (128 + the signal's number).
 #[test]
 fn a_ctrl_c_while_the_scene_loads_exits_at_once() {
     let dir = tempfile::tempdir().unwrap();
     let scene = dir.path().join("scene.toml");
     let made = Command::new("mkfifo").arg(&scene).status().unwrap();
     assert!(made.success());
+    'signals: for (signal, code) in [("INT", 130), ("HUP", 129), ("TERM", 143)] {
+        for wait_ms in [1000, 3000, 9000] {
+            let image = dir.path().join("img.exr");
+            let (status, stderr) = command_signalled("render", &image, &scene, wait_ms, signal);
+            if status.code().is_none() {
+                continue; // the signal came before the handler was installed
+            }
+            assert_eq!(status.code(), Some(code), "SIG{signal}: {stderr}");
+            assert_eq!(
+                stderr,
+                "\nphotondiff: interrupted before there was anything to keep: exiting without writing\n"
+            );
+            assert!(!dir.path().join("img.exr").exists());
+            continue 'signals;
+        }
+        panic!("the render died of SIG{signal} three times: no handler");
+    }
+}
+
+/// A SIGTERM and then a Ctrl-C (a scheduler's limit, then a user who will not wait): the
+/// second exits at once, with the status of the first.
+#[test]
+fn the_first_signal_names_the_status() {
+    let dir = tempfile::tempdir().unwrap();
     for wait_ms in [1000, 3000, 9000] {
-        let image = dir.path().join("img.exr");
-        let (status, stderr) = command_interrupted("render", &image, &scene, wait_ms);
+        let mut child = start(dir.path(), &large(), &["--view-grid", "8"]);
+        std::thread::sleep(Duration::from_millis(wait_ms));
+        interrupt(&child, "TERM");
+        std::thread::sleep(Duration::from_millis(50));
+        interrupt(&child, "INT");
+        let status = wait(&mut child);
+        let mut stderr = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
         if status.code().is_none() {
             continue; // the signal came before the handler was installed
         }
-        assert_eq!(status.code(), Some(130), "{stderr}");
-        assert_eq!(
-            stderr,
-            "\nphotondiff: interrupted before there was anything to keep: exiting without writing\n"
-        );
-        assert!(!dir.path().join("img.exr").exists());
+        assert_eq!(status.code(), Some(143), "{stderr}");
+        assert!(!dir.path().join("img.exr").exists(), "{stderr}");
         return;
     }
     panic!("the render died of the signal three times: no handler");

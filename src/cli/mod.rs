@@ -188,33 +188,58 @@ pub fn start_trace(trace: Option<&Path>) -> Result<(), String> {
 /// nothing to keep, and waiting for a large scene's loading to end only to stop took tens of
 /// seconds. Not for a worker's pass range (`--pass-range`), whose passes belong to a larger
 /// run: there Ctrl-C ends the process as usual.
+///
+/// SIGTERM (a batch system's time limit) and SIGHUP (a closed terminal) are taken alike; the
+/// exit status names the signal that came first, 128 plus its number (143, 129), as a shell
+/// would for a process the signal ended ([`photondiff::util::interrupt::exit_status`]). The
+/// signals are received on a thread of their own (`signal_hook`'s iterator), so the handling
+/// below runs outside the signal handler and may print and exit. Installed once a process.
 pub(crate) fn stop_on_ctrl_c(first: &'static str) {
-    // A handler already set (by an embedding program) is left alone.
-    let _ = ctrlc::set_handler(move || {
-        if !photondiff::util::interrupt::begun() {
-            photondiff::stderr_line!(
-                "\nphotondiff: interrupted before there was anything to keep: exiting without writing"
-            );
-            std::process::exit(130);
-        }
-        if photondiff::util::interrupt::request() {
-            photondiff::stderr_line!(
-                "\nphotondiff: interrupted again: exiting without writing the image"
-            );
-            std::process::exit(130);
-        }
-        if photondiff::util::interrupt::kept() {
-            photondiff::stderr_line!(
-                "\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)"
-            );
-        } else {
-            // It said it would write the passes done, then that none was.
-            photondiff::stderr_line!(
-                "\nphotondiff: interrupted: stopping the first pass, which is not finished: \
-                 nothing will be written (Ctrl-C again to exit at once)"
-            );
-        }
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    static INSTALLED: std::sync::Once = std::sync::Once::new();
+    INSTALLED.call_once(|| {
+        let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+            // Without the handler the signals end the process as they would any other.
+            return;
+        };
+        // A thread that cannot be made drops `signals`, which unregisters them.
+        let _ = std::thread::Builder::new()
+            .name("signals".into())
+            .spawn(move || {
+                for signal in signals.forever() {
+                    on_signal(first, u8::try_from(signal).unwrap_or(SIGINT as u8));
+                }
+            });
     });
+}
+
+/// What [`stop_on_ctrl_c`] does with the signal numbered `signal`.
+fn on_signal(first: &str, signal: u8) {
+    let stopped_before = photondiff::util::interrupt::request_by(signal);
+    let status = i32::from(photondiff::util::interrupt::exit_status());
+    if !photondiff::util::interrupt::begun() {
+        photondiff::stderr_line!(
+            "\nphotondiff: interrupted before there was anything to keep: exiting without writing"
+        );
+        std::process::exit(status);
+    }
+    if stopped_before {
+        photondiff::stderr_line!(
+            "\nphotondiff: interrupted again: exiting without writing the image"
+        );
+        std::process::exit(status);
+    }
+    if photondiff::util::interrupt::kept() {
+        photondiff::stderr_line!(
+            "\nphotondiff: interrupted: {first} (Ctrl-C again to exit at once)"
+        );
+    } else {
+        // It said it would write the passes done, then that none was.
+        photondiff::stderr_line!(
+            "\nphotondiff: interrupted: stopping the first pass, which is not finished: \
+             nothing will be written (Ctrl-C again to exit at once)"
+        );
+    }
 }
 
 /// Where `--trace` goes, once [`start_trace`] has begun it, and whether a failed run may

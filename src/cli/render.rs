@@ -127,7 +127,8 @@ pub struct RenderArgs {
     /// estimator) and 1 for the others (the thesis's methods as they were), or no limit with
     /// --time-budget or --target-noise. Ctrl-C stops the passes after the one under way (and
     /// `lighttrace` after the paths under way) and writes the image of what was done (exit
-    /// status 130); a second Ctrl-C exits at once. At most 1,000,000.
+    /// status 130; SIGTERM the same, status 143); a second Ctrl-C exits at once. At most
+    /// 1,000,000.
     #[arg(long, value_name = "N")]
     passes: Option<String>,
     /// Photon estimates and `direct`: stop after the last whole pass that fits in SECONDS (at

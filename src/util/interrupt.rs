@@ -6,14 +6,39 @@
 //! the handler that makes the request (a second Ctrl-C there exits at once). The library never
 //! installs one: a render embedded elsewhere stops only by its rules.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU8, Ordering};
 
 /// Whether a stop was requested. Process-wide, as the signal that sets it.
 static REQUESTED: AtomicBool = AtomicBool::new(false);
 
+/// The number of the signal that first requested the stop (0: none, or a request that came
+/// from no signal).
+static SIGNAL: AtomicU8 = AtomicU8::new(0);
+
+/// SIGINT's number: what [`exit_status`] assumes of a request that named no signal.
+const SIGINT: u8 = 2;
+
 /// Requests a stop; returns whether one had been requested before.
 pub fn request() -> bool {
     REQUESTED.swap(true, Ordering::SeqCst)
+}
+
+/// [`request`] made by the signal numbered `signal` (the first one's number is kept for
+/// [`exit_status`]).
+pub fn request_by(signal: u8) -> bool {
+    let _ = SIGNAL.compare_exchange(0, signal, Ordering::SeqCst, Ordering::SeqCst);
+    request()
+}
+
+/// The exit status of a run the request stopped: 128 plus the number of the signal that made
+/// it, as a shell reports a process the signal ended (130 for Ctrl-C's SIGINT, 143 for
+/// SIGTERM, a batch system's time limit, 129 for SIGHUP), so that a script can tell a user's
+/// Ctrl-C from its scheduler's limit.
+pub fn exit_status() -> u8 {
+    match SIGNAL.load(Ordering::SeqCst) {
+        0 => 128 + SIGINT,
+        signal => 128u8.saturating_add(signal),
+    }
 }
 
 /// Whether a stop has been requested.
