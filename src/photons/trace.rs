@@ -493,14 +493,21 @@ impl<'a> PhotonTracer<'a> {
     /// The mirror images of the traced photons `block` beyond the walls and edges their
     /// footprints in the map of `class` run into ([`PhotonOptions::probe_walls`]; none
     /// without): for the radiance map, whose estimates near a wall are discs hanging past it.
-    pub fn mirror_samples(&self, block: &[TracedPhoton], class: PathClass) -> Vec<RadianceSample> {
+    /// Only the photons whose index in `block` `keep` accepts are probed (the radiance map
+    /// reads the images of the photons its estimates read, not of its points).
+    pub fn mirror_samples(
+        &self,
+        block: &[TracedPhoton],
+        class: PathClass,
+        keep: impl Fn(usize) -> bool,
+    ) -> Vec<RadianceSample> {
         let Some(walls) = self.walls.as_ref() else {
             return Vec::new();
         };
         let limits = self.options.class_limits(self.scene, class);
         let mut guards = Guards::default();
         let mut out = Vec::new();
-        for t in block {
+        for (_, t) in block.iter().enumerate().filter(|&(j, _)| keep(j)) {
             let f = self.footprint_of(t, &limits, &mut guards);
             let p = t.ray.p;
             if let Some(pair) = walls.nearest(p, t.normal, &f, self.paths.epsilon) {

@@ -7,7 +7,7 @@ use crate::photons::emission::Emitter;
 use crate::photons::footprint::Guards;
 use crate::photons::map::{PathClass, PhotonMap};
 use crate::photons::options::PhotonOptions;
-use crate::photons::radiance_map::{RadianceMap, RadianceSample};
+use crate::photons::radiance_map::{self, RadianceMap, RadianceSample};
 use crate::photons::trace::{emission_stopped, PhotonTracer, StopRule, TraceCounts};
 use crate::photons::PhotonMaps;
 use crate::scene::Scene;
@@ -77,10 +77,18 @@ pub fn trace_photon_maps(
                     |batch| {
                         let what = "photons stored for the radiance map";
                         reserve::make_room(&mut samples, batch.len(), what)?;
+                        let first = samples.len();
                         samples.extend(batch.iter().map(RadianceSample::of));
+                        // The images of the photons the estimates read (not of the points).
+                        const BLOCK: usize = 1 << 9;
                         let images: Vec<Vec<RadianceSample>> = batch
-                            .par_chunks(1 << 9)
-                            .map(|block| tracer.mirror_samples(block, PathClass::AllDiffuse))
+                            .par_chunks(BLOCK)
+                            .enumerate()
+                            .map(|(b, block)| {
+                                let at = first + b * BLOCK;
+                                let read = |j: usize| !radiance_map::is_point(at + j);
+                                tracer.mirror_samples(block, PathClass::AllDiffuse, read)
+                            })
                             .collect();
                         let more = images.iter().map(Vec::len).sum();
                         reserve::make_room(&mut mirrors, more, "mirror photons stored")?;
