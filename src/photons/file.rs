@@ -21,7 +21,8 @@
 //! matrix rows `m[0]`, `m[1]` (3 each), `inv_area`, `radius`. The settings are the photon
 //! options as the command line spells them (`--photons`, `--caustic-photons`, `--overlap`,
 //! `--seed`, `--global-aim`, `--probe-walls`) plus the fixed ones, every value as its exact
-//! decimal text. Kd-trees are not stored: they are rebuilt on loading (see
+//! decimal text, and (since stop 60) `embree`, the Embree the maps were traced with: another
+//! build's maps are refused. Kd-trees are not stored: they are rebuilt on loading (see
 //! `benches/photon_file.rs` for the cost).
 
 use super::footprint::Guards;
@@ -125,9 +126,11 @@ pub fn encode(
     options: &PhotonOptions,
 ) -> Vec<u8> {
     let payload_bytes = map_bytes(&maps.caustic) + map_bytes(&maps.global);
+    let mut settings = settings(options);
+    settings.insert(BACKEND_KEY.into(), crate::embree::BACKEND.into());
     let header = Header {
         scene_hash: format!("{scene_hash:016x}"),
-        settings: settings(options),
+        settings,
         payload_bytes: payload_bytes as u64,
     };
     let header = serde_json::to_vec(&header).expect("a header is always JSON");
@@ -372,8 +375,28 @@ fn header(bytes: &[u8], len: u64) -> Result<(Header, usize), String> {
     Ok((header, end as usize))
 }
 
-/// Refuses a header whose settings are not `options`'.
+/// The header's setting naming the Embree the maps were traced with (since stop 60).
+const BACKEND_KEY: &str = "embree";
+
+/// Refuses maps traced with another Embree than this build's, `backend`: Embree 3 and 4 (and
+/// their versions) agree on hits only to rounding, so a render from them would not be the one
+/// a single process of this build makes, and `merge` refuses parts of two backends alike.
+/// Files written before stop 60 do not say, and are taken.
+fn check_backend(file: Option<&str>, backend: &str) -> Result<(), String> {
+    match file {
+        Some(theirs) if theirs != backend => Err(format!(
+            "photon maps traced with another Embree: {theirs} in the file, {backend} in this \
+             photondiff (their hits agree only to rounding, so the render would not be the one \
+             this build makes alone; trace the maps again with this build's `photondiff photons`)"
+        )),
+        _ => Ok(()),
+    }
+}
+
+/// Refuses a header whose settings are not `options'`, or that was traced with another Embree.
 fn check_settings(header: &Header, options: &PhotonOptions) -> Result<(), String> {
+    let file_backend = header.settings.get(BACKEND_KEY).map(String::as_str);
+    check_backend(file_backend, crate::embree::BACKEND)?;
     for (key, value) in &settings(options) {
         let theirs = header.settings.get(key).map_or("(none)", |v| v.as_str());
         if theirs != value && ["max_bounces", "max_anisotropy"].contains(&key.as_str()) {
@@ -520,6 +543,30 @@ mod tests {
             };
             assert!(e.starts_with(&expected), "{len}: {e}");
         }
+    }
+
+    /// Maps traced by another Embree are refused with a message naming both; files from
+    /// before stop 60, which do not say, are taken; this build's own files say this build's.
+    #[test]
+    fn maps_of_another_embree_are_refused() {
+        assert_eq!(
+            check_backend(Some("Embree 3.13.5"), "Embree 4.3.3").unwrap_err(),
+            "photon maps traced with another Embree: Embree 3.13.5 in the file, Embree 4.3.3 in \
+             this photondiff (their hits agree only to rounding, so the render would not be the \
+             one this build makes alone; trace the maps again with this build's `photondiff \
+             photons`)"
+        );
+        assert_eq!(check_backend(None, "Embree 4.3.3"), Ok(()));
+        assert_eq!(check_backend(Some("Embree 4.3.3"), "Embree 4.3.3"), Ok(()));
+        let maps = PhotonMaps {
+            caustic: map(PathClass::Caustic, 3),
+            global: map(PathClass::Global, 0),
+            radiance: None,
+        };
+        let options = PhotonOptions::default();
+        let bytes = encode(&maps, &[TraceCounts::default(); 2], 0xabc, &options);
+        let (header, _) = header(&bytes, bytes.len() as u64).unwrap();
+        assert_eq!(header.settings[BACKEND_KEY], crate::embree::BACKEND);
     }
 
     /// A file whose checksum matches but whose numbers are wrong (written wrongly, or forged)
