@@ -224,8 +224,8 @@ fn closed_box(rho: f64, side: u32) -> String {
 /// not shrink with the passes' schedule. It did, below the spacing of the points its estimates
 /// are kept at, and gather rays between their discs read no light: in a closed box of albedo
 /// 0.8 the image's mean was 0.98 of the exact value after 2 passes, 0.93 after 32 and 0.68
-/// after 576. Now 0.99 after 32 (the rest is the estimate's bias along the box's edges, where
-/// a disc lies partly on the next wall: README, "Final gathering").
+/// after 576. Then 0.99 after 32, the rest lost along the box's edges (README, "Final
+/// gathering"); 1.000 since stop 61, whose mirrors reach as far as the estimates' discs.
 #[test]
 fn passes_with_final_gathering_do_not_darken() {
     let dir = tempfile::tempdir().unwrap();
@@ -239,14 +239,16 @@ fn passes_with_final_gathering_do_not_darken() {
     assert!(ok, "{stderr}");
     let ratio = mean(&film.unwrap()) / expected;
     eprintln!("32 passes with final gathering: {ratio:.4} of the exact mean");
-    assert!((0.97..=1.02).contains(&ratio), "{ratio}");
+    assert!((0.995..=1.005).contains(&ratio), "{ratio}");
 }
 
 /// Beside the cube's twelve edges a radiance point's disc hangs past its wall: with the
 /// default render's wall probes, mirror photons beyond the walls fill it (`--probe-walls`).
-/// Without them the cube reads 0.983 of its exact mean (0.984 before stop 60, whose estimates
-/// no longer count their own photon, which hid part of the edges' loss); with them 0.992
-/// (0.995 before).
+/// Without them the cube reads 0.984 of its exact mean; with them 0.998. Until stop 61 the
+/// mirrors reached only as far as each photon's footprint, which the passes shrink while the
+/// estimates' discs do not, and a gather hit beside an edge whose nearest points were the
+/// other wall's read no light: 0.992 (0.995 before stop 60, whose estimates no longer count
+/// their own photon, which hid part of the loss).
 #[test]
 fn mirror_photons_fill_the_radiance_maps_discs_at_edges() {
     let dir = tempfile::tempdir().unwrap();
@@ -269,7 +271,7 @@ fn mirror_photons_fill_the_radiance_maps_discs_at_edges() {
     };
     let (with, without) = (ratio("true"), ratio("false"));
     eprintln!("mirror photons: {with:.4} of the exact mean, without {without:.4}");
-    assert!((0.99..=1.01).contains(&with), "{with}");
+    assert!((0.995..=1.005).contains(&with), "{with}");
     assert!(without < 0.99, "{without}");
 }
 

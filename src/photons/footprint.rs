@@ -69,6 +69,18 @@ pub struct Footprint {
     pub radius: f64,
 }
 
+impl Footprint {
+    /// The round footprint of `radius` on a surface of unit normal `n`.
+    pub fn round(n: DVec3, radius: f64) -> Self {
+        let (t1, t2) = tangent_frame(n);
+        Footprint {
+            m: [t1 / radius, t2 / radius],
+            area: radius * radius,
+            radius,
+        }
+    }
+}
+
 /// The footprint of differentials `a`, `b` on a surface of unit normal `n`, guarded by `limits`;
 /// `nominal_radius` is the round footprint used when `a`, `b` are degenerate.
 pub fn footprint(

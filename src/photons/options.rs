@@ -57,7 +57,9 @@ pub struct PhotonOptions {
     /// map viewed directly. Default false.
     pub radiance_map: bool,
     /// Whether each photon's footprint is probed for walls and edges, and a mirror photon added
-    /// beyond the nearest ([`crate::photons::walls`]; one packet of 16 rays a photon). Default
+    /// beyond the nearest ([`crate::photons::walls`]; one packet of 16 rays a photon); the
+    /// radiance map's photons are probed over a disc of its estimates' largest radius
+    /// instead ([`crate::photons::trace::PhotonTracer::mirror_samples`]). Default
     /// false (the thesis's photon maps); the default render uses
     /// [`crate::render::defaults::DEFAULT_PROBE_WALLS`].
     pub probe_walls: bool,

@@ -490,25 +490,30 @@ impl<'a> PhotonTracer<'a> {
         footprint(t.ray.dp[0], t.ray.dp[1], t.normal, limits, nominal, guards)
     }
 
-    /// The mirror images of the traced photons `block` beyond the walls and edges their
-    /// footprints in the map of `class` run into ([`PhotonOptions::probe_walls`]; none
-    /// without): for the radiance map, whose estimates near a wall are discs hanging past it.
-    /// Only the photons whose index in `block` `keep` accepts are probed (the radiance map
-    /// reads the images of the photons its estimates read, not of its points).
+    /// The mirror images of the traced photons `block` beyond the walls and edges within the
+    /// radiance map's reach of them ([`PhotonOptions::probe_walls`]; none without): for the
+    /// radiance map, whose estimates near a wall are discs hanging past it. Each photon is
+    /// probed over a round disc of the radiance estimates' largest radius
+    /// ([`PhotonOptions::radiance_max_radius`]), the farthest past a wall a disc can reach.
+    /// (Probed over its own footprint, as the global map's photons are, a photon's mirror
+    /// reached only as far as the footprint, which the passes shrink while the estimates'
+    /// discs do not: in a closed cube the map read 10% low at the edges by the sixteenth
+    /// pass, 2.5% at the first.) Only the photons whose index in `block` `keep` accepts are
+    /// probed (the radiance map reads the images of the photons its estimates read, not of its
+    /// points).
     pub fn mirror_samples(
         &self,
         block: &[TracedPhoton],
-        class: PathClass,
         keep: impl Fn(usize) -> bool,
     ) -> Vec<RadianceSample> {
         let Some(walls) = self.walls.as_ref() else {
             return Vec::new();
         };
-        let limits = self.options.class_limits(self.scene, class);
-        let mut guards = Guards::default();
+        let reach = self.options.radiance_max_radius(self.scene);
         let mut out = Vec::new();
-        for (_, t) in block.iter().enumerate().filter(|&(j, _)| keep(j)) {
-            let f = self.footprint_of(t, &limits, &mut guards);
+        let kept = block.iter().enumerate().filter(|&(j, _)| keep(j));
+        for t in kept.map(|(_, t)| t) {
+            let f = Footprint::round(t.normal, reach);
             let p = t.ray.p;
             if let Some(pair) = walls.nearest(p, t.normal, &f, self.paths.epsilon) {
                 for image in pair.images() {

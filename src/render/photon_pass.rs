@@ -87,7 +87,7 @@ pub fn trace_photon_maps(
                             .map(|(b, block)| {
                                 let at = first + b * BLOCK;
                                 let read = |j: usize| !radiance_map::is_point(at + j);
-                                tracer.mirror_samples(block, PathClass::AllDiffuse, read)
+                                tracer.mirror_samples(block, read)
                             })
                             .collect();
                         let more = images.iter().map(Vec::len).sum();
