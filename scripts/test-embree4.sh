@@ -185,6 +185,9 @@ say "testing the Embree 4 backend (target directory $TARGET)"
 # covers the rest.
 EMBREE_DIR=$PREFIX cargo test --features embree4 --lib \
     --test embree_layer --test differentials --test direct_light --test instances --test memory
+# And `merge`'s refusal of parts made with the compact BVH and the ordinary one, which only
+# this backend records (`embree::COMPACT_CHANGES_HITS`).
+EMBREE_DIR=$PREFIX cargo test --features embree4 --test farm merge_refuses_foreign
 unset CARGO_TARGET_DIR
 
 # --- the canonical render with both backends -----------------------------------------------------

@@ -34,8 +34,9 @@ pub struct BvhArgs {
 }
 
 impl BvhArgs {
-    /// Whether `--bvh-robust` was given: the one BVH option that can change an image (hits on
-    /// edges), recorded in a render's attributes so that `merge` refuses parts that differ.
+    /// Whether `--bvh-robust` was given: a BVH option that can change an image (hits on
+    /// edges), recorded in a render's attributes so that `merge` refuses parts that differ
+    /// (as the compact BVH is where it can change hits: [`embree::COMPACT_CHANGES_HITS`]).
     pub fn robust(&self) -> bool {
         self.bvh_robust
     }

@@ -38,7 +38,7 @@ mod v3;
 mod v4;
 
 pub use bounds::GeometryBounds;
-pub use bvh::{BvhQuality, BvhSettings, COMPACT_FROM_TRIANGLES};
+pub use bvh::{BvhQuality, BvhSettings, COMPACT_CHANGES_HITS, COMPACT_FROM_TRIANGLES};
 pub use device::{Device, EmbreeError, EmbreeMemory};
 pub use hit::Hit;
 pub use mesh::{TriangleMesh, MAX_COORDINATE};

@@ -62,6 +62,14 @@ pub(super) fn exr_metadata(
             stats.light_paths.to_string(),
         ));
     }
+    // Where the compact BVH can change hits (Embree 4), which BVH made the image: parts of
+    // both would merge into an image equal to neither, as with `--bvh-robust`.
+    if photondiff::embree::COMPACT_CHANGES_HITS {
+        metadata.push((
+            "photondiff/bvh_compact".to_string(),
+            stats.memory.bvh.compact.to_string(),
+        ));
+    }
     if let Some(p) = &stats.progressive {
         metadata.extend(
             pass_metadata(p)
