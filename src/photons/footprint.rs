@@ -165,6 +165,23 @@ mod tests {
         assert!((f.area - a.cross(b).length()).abs() < 1e-12);
     }
 
+    /// A round footprint maps every tangent vector of its radius onto the unit circle, and
+    /// the normal onto the origin.
+    #[test]
+    fn round_footprints_map_their_radius_onto_the_unit_circle() {
+        let n = DVec3::new(0.3, -0.8, 0.5).normalize();
+        let (t1, t2) = tangent_frame(n);
+        let f = Footprint::round(n, 0.25);
+        let filter = |v: DVec3| (f.m[0].dot(v).powi(2) + f.m[1].dot(v).powi(2)).sqrt();
+        for k in 0..12 {
+            let (sin, cos) = (k as f64 * 0.5).sin_cos();
+            let r = filter((t1 * cos + t2 * sin) * 0.25);
+            assert!((r - 1.0).abs() < 1e-12, "{r}");
+        }
+        assert!(filter(n) < 1e-12);
+        assert_eq!((f.radius, f.area), (0.25, 0.0625));
+    }
+
     #[test]
     fn degenerate_footprints_are_guarded_and_counted() {
         let limits = FootprintLimits {
