@@ -1180,6 +1180,16 @@ fn max_depth_is_bounded_and_its_bound_renders() {
     assert_eq!(refused.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&refused.stderr)
         .starts_with("error: invalid value '257' for '--max-depth <N>': 257 is not in 0..=256"));
+    // `--split-depth` counts the same bounces, within the same bound.
+    let refused = Command::new(exe)
+        .arg("render")
+        .arg(&scene)
+        .args(["-o", "x.exr", "--split-depth", "257"])
+        .output()
+        .unwrap();
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr)
+        .starts_with("error: invalid value '257' for '--split-depth <N>': 257 is not in 0..=256"));
     let deep = run("256");
     assert!(
         deep.status.success(),
@@ -1295,6 +1305,11 @@ fn an_option_of_another_estimator_is_refused() {
             "--global-alpha does not apply to a one-pass render (--passes 1): it shrinks the \
              footprints from one pass to the next; give --passes, --time-budget or \
              --target-noise for more",
+        ),
+        (
+            &["--estimator", "lighttrace", "--split-depth", "2"][..],
+            "--split-depth does not apply to --estimator lighttrace (its paths reach the camera \
+             from the lights: it traces no camera rays)",
         ),
         (
             &["--estimator", "lighttrace", "--view-grid", "2"][..],

@@ -72,6 +72,14 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", default_value_t = 10,
           value_parser = clap::value_parser!(u32).range(0..=MAX_DEPTH as i64))]
     max_depth: u32,
+    /// Mirror and glass bounces after which a camera path's glass surfaces take one branch,
+    /// reflected or refracted with Fresnel's probability, instead of both (0: one at every glass
+    /// surface; without it, both at every one): for scenes of many glass objects, where split
+    /// paths grow into trees of rays; each pass is noisier and cheaper, the image's expectation
+    /// the same.
+    #[arg(long, value_name = "N",
+          value_parser = clap::value_parser!(u32).range(0..=MAX_DEPTH as i64))]
+    split_depth: Option<u32>,
     /// Area-light samples per shading point along each axis (N x N stratified).
     #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u32).range(1..=64))]
     area_samples: u32,
@@ -324,6 +332,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         .with_threads(args.threads)
         .with_seed(args.seed)
         .with_max_depth(args.max_depth)
+        .with_split_depth(args.split_depth)
         .with_area_strata(args.area_samples)
         .with_footprint_strata(
             args.footprint_shadow_rays

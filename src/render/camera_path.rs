@@ -1,14 +1,23 @@
 //! Camera paths through mirror and glass to their diffuse hits, with ray differentials.
 //!
 //! Reflection and refraction are both followed, weighted by Fresnel: deterministic, no random
-//! choice. A branch ends at a diffuse surface, a light, a miss, the depth limit, or when its weight
-//! drops below [`MIN_BRANCH_WEIGHT`].
+//! choice, up to [`ViewPaths::split_depth`] mirror and glass bounces (by default at every
+//! glass surface); beyond it a glass surface takes one branch, chosen with Fresnel's
+//! probability. A branch ends at a diffuse surface, a light, a miss, the depth limit, or when
+//! its weight drops below [`MIN_BRANCH_WEIGHT`].
+//!
+//! Why a choice at all: splitting doubles a path at every glass surface it meets, so a path
+//! through many glass objects (the production scene's hundred balls) grows into a tree of
+//! hundreds of rays, most of them carrying little. One branch chosen with its Fresnel
+//! probability carries the path's whole weight (the branch's weight `F` over its probability
+//! `F`), so the image's expectation is the split one's; each pass is noisier, and cheaper.
 
 use crate::embree::{self, Hit};
 use crate::geometry::differential::{GlassInterface, RayDifferential, Refraction};
 use crate::geometry::surface::{continuation, mirror_frame, surface_frame, transfer_to};
 use crate::render::stats::RayCounts;
 use crate::scene::{Material, Scene};
+use crate::util::rng::Rng;
 use glam::DVec3;
 
 /// Branches whose largest channel weight falls below this are dropped: they would change a
@@ -41,6 +50,10 @@ pub struct ViewPaths<'a> {
     pub embree: &'a embree::Scene,
     /// Maximum number of specular bounces.
     pub max_depth: u32,
+    /// Mirror and glass bounces after which a glass surface takes one branch (reflected with
+    /// probability `F`, Fresnel's reflectance, else refracted) rather than both; `None`: both
+    /// at every glass surface. `Some(0)` chooses at every one.
+    pub split_depth: Option<u32>,
     /// Length skipped at the start of rays leaving a surface (`tnear`: the ray starts on the
     /// surface, see `geometry::surface::continuation`).
     pub epsilon: f64,
@@ -69,6 +82,7 @@ impl ViewPaths<'_> {
         vertices: &mut Vec<DiffuseVertex>,
         radiance: &mut DVec3,
         tally: &mut PathTally,
+        rng: &mut Rng,
     ) {
         let Some(hit) = hit else { return };
         let at_hit = transfer_to(ray, &hit);
@@ -98,6 +112,7 @@ impl ViewPaths<'_> {
                     vertices,
                     radiance,
                     tally,
+                    rng,
                 );
             }
             Material::Glass { ior } => {
@@ -106,6 +121,12 @@ impl ViewPaths<'_> {
                 match at_hit.refract(&frame, glass.n_from, glass.n_to) {
                     Refraction::Transmitted(t) => {
                         let reflected = at_hit.reflect(&frame);
+                        if self.split_depth.is_some_and(|n| depth >= n) {
+                            // The chosen branch's weight `F` (or `1 - F`) over its probability.
+                            let ray = if rng.uniform() < f { reflected } else { t };
+                            self.branch(ray, weight, depth, sample, vertices, radiance, tally, rng);
+                            return;
+                        }
                         self.branch(
                             reflected,
                             weight * f,
@@ -114,6 +135,7 @@ impl ViewPaths<'_> {
                             vertices,
                             radiance,
                             tally,
+                            rng,
                         );
                         self.branch(
                             t,
@@ -123,10 +145,11 @@ impl ViewPaths<'_> {
                             vertices,
                             radiance,
                             tally,
+                            rng,
                         );
                     }
                     Refraction::TotalInternalReflection(r) => {
-                        self.branch(r, weight, depth, sample, vertices, radiance, tally);
+                        self.branch(r, weight, depth, sample, vertices, radiance, tally, rng);
                     }
                 }
             }
@@ -144,6 +167,7 @@ impl ViewPaths<'_> {
         vertices: &mut Vec<DiffuseVertex>,
         radiance: &mut DVec3,
         tally: &mut PathTally,
+        rng: &mut Rng,
     ) {
         if weight.max_element() < MIN_BRANCH_WEIGHT {
             return;
@@ -163,6 +187,7 @@ impl ViewPaths<'_> {
             vertices,
             radiance,
             tally,
+            rng,
         );
     }
 }

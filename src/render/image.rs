@@ -36,6 +36,10 @@ pub struct RenderOptions {
     pub edge_grid: u32,
     /// Maximum number of specular bounces of a camera path. Default 10.
     pub max_depth: u32,
+    /// Glass surfaces met after this many mirror or glass bounces take one branch, reflected or
+    /// refracted with Fresnel's probability, instead of both ([`ViewPaths::split_depth`]).
+    /// Default `None`: every glass surface splits the path in two.
+    pub split_depth: Option<u32>,
     /// Area-light samples per diffuse hit, per light, along each axis (stratified). Default 4.
     pub area_strata: u32,
     /// Shadow rays to each point and spot light at a camera ray's first diffuse hit (seen
@@ -71,6 +75,7 @@ impl Default for RenderOptions {
             view_grid: 1,
             edge_grid: 1,
             max_depth: 10,
+            split_depth: None,
             area_strata: 4,
             footprint_strata: 1,
             seed: 0,
@@ -107,6 +112,11 @@ impl RenderOptions {
     /// Sets [`RenderOptions::max_depth`].
     pub fn with_max_depth(mut self, depth: u32) -> Self {
         self.max_depth = depth;
+        self
+    }
+    /// Sets [`RenderOptions::split_depth`].
+    pub fn with_split_depth(mut self, depth: Option<u32>) -> Self {
+        self.split_depth = depth;
         self
     }
     /// Sets [`RenderOptions::area_strata`].
@@ -340,6 +350,7 @@ impl<'a> TileRenderer<'a> {
                 scene,
                 embree,
                 max_depth: options.max_depth,
+                split_depth: options.split_depth,
                 epsilon,
             },
             direct: DirectLight {
@@ -455,6 +466,7 @@ impl<'a> TileRenderer<'a> {
                     &mut vertices,
                     &mut radiance[lane],
                     &mut tally,
+                    &mut rng,
                 );
             }
             // Before direct light is added, a lane's radiance is the light it saw.

@@ -62,6 +62,14 @@ pub(super) fn exr_metadata(
             stats.light_paths.to_string(),
         ));
     }
+    // Only where given: images made before the option, which split every path, merge with
+    // those made without it.
+    if let Some(n) = args
+        .split_depth
+        .filter(|_| reads_attribute(run, "split_depth"))
+    {
+        metadata.push(("photondiff/split_depth".to_string(), n.to_string()));
+    }
     // Where the compact BVH can change hits (Embree 4), which BVH made the image: parts of
     // both would merge into an image equal to neither, as with `--bvh-robust`.
     if photondiff::embree::COMPACT_CHANGES_HITS {

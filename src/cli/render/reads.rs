@@ -140,6 +140,12 @@ const SETTINGS: &[Setting] = &[
     setting("edge_grid", "--edge-grid", "edge_grid", Reader::CameraRays),
     setting("max_depth", "--max-depth", "max_depth", Reader::CameraRays),
     setting(
+        "split_depth",
+        "--split-depth",
+        "split_depth",
+        Reader::CameraRays,
+    ),
+    setting(
         "area_samples",
         "--area-samples",
         "area_samples",
