@@ -415,7 +415,7 @@ impl<'a> TileRenderer<'a> {
             match self.options.edges.as_ref().and_then(|m| m.tile(rect)) {
                 Some(edge) => edge,
                 None => {
-                    let (edge, corner_rays) = edge_pixels(camera, self.embree, rect);
+                    let (edge, corner_rays) = edge_pixels(self.scene, self.embree, rect);
                     tally.rays.camera += corner_rays;
                     edge
                 }

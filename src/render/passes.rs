@@ -115,8 +115,9 @@ impl Progressive<'_> {
                 .unwrap_or(Window::full(camera.width, camera.height));
             // A stage of its own, its rays on the trace's track: they were in the run's count
             // of camera rays but in no stage's time and on no pass's point of the track.
-            let (mask, corner_rays) =
-                stats.time("find edges", || EdgeMask::find(camera, self.embree, window));
+            let (mask, corner_rays) = stats.time("find edges", || {
+                EdgeMask::find(self.scene, self.embree, window)
+            });
             stats.rays.camera += corner_rays;
             trace::counter(
                 "rays",
