@@ -280,6 +280,8 @@ fn merge_refuses_foreign_overlapping_and_incomplete_parts() {
     let compact = tile(&scene_a, &d.join("compact"), 1, 4, &["--bvh-compact"]);
     // Robust traversal changes hits on edges: parts with and without it are not one image.
     let robust = tile(&scene_a, &d.join("robust"), 1, 4, &["--bvh-robust"]);
+    // A part whose glass surfaces chose branches: the same image in expectation only.
+    let split = tile(&scene_a, &d.join("split"), 1, 4, &["--split-depth", "1"]);
     let seven = tile(&scene_a, &d.join("seven"), 0, 7, &[]);
     let out = d.join("merged.exr");
     let merge = |parts: &[&PathBuf]| {
@@ -309,6 +311,15 @@ fn merge_refuses_foreign_overlapping_and_incomplete_parts() {
         format!(
             "photondiff: error: {0} has other settings than {1}: photondiff/seed is 7 in {0}, 0 in {1}",
             s(&seed),
+            s(&a[0])
+        )
+    );
+    let e = merge(&[&a[0], &split, &a[2], &a[3]]);
+    assert_eq!(
+        e,
+        format!(
+            "photondiff: error: {0} has other settings than {1}: photondiff/split_depth is 1 in {0}, (none) in {1}",
+            s(&split),
             s(&a[0])
         )
     );
