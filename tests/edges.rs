@@ -6,7 +6,9 @@ use common::render_stats;
 use photondiff::embree::{Device, Ray};
 use photondiff::estimate::{EstimatorKind, EstimatorSettings};
 use photondiff::photons::options::PhotonOptions;
-use photondiff::render::edges::{edge_pixels, same_surface, CornerHit, EdgeMask};
+use photondiff::render::edges::{
+    edge_pixels, finer_than_the_pixel, same_surface, CornerHit, EdgeMask,
+};
 use photondiff::render::film::Film;
 use photondiff::render::passes::{Progressive, StopRules, DEFAULT_ALPHA, DEFAULT_GLOBAL_ALPHA};
 use photondiff::render::split::Window;
@@ -49,8 +51,9 @@ fn edge_pixels_are_those_whose_corner_rays_meet_different_surfaces() {
                 surface(x, y + 1),
                 surface(x + 1, y + 1),
             ];
-            let expected =
-                (0..4).any(|a| (a + 1..4).any(|b| !same_surface(corners[a], corners[b])));
+            let expected = (0..4)
+                .any(|a| (a + 1..4).any(|b| !same_surface(corners[a], corners[b])))
+                && !finer_than_the_pixel(&corners);
             assert_eq!(whole[(y * w + x) as usize], expected, "pixel ({x}, {y})");
             edges += expected as usize;
         }
@@ -141,25 +144,24 @@ material = "white"
 }
 
 /// A glass sheet rippled far finer than a pixel (its normal turns within nearly every pixel it
-/// covers), in front of a second, flat sheet of the same mesh further back: the ripples
-/// are no edges (the corner rays' distances do not jump), the rippled sheet's outline against
-/// the flat one behind it is (one mesh, a jump in distance), and so is the outline against the
-/// floor. The same ripples in a diffuse mesh are creases, as before.
+/// covers), in front of a second, flat sheet of the same mesh further back: inside the rippled
+/// sheet no pixel is an edge, where the crease rule alone flagged most; on its outline against
+/// the sheet behind (one mesh, a jump in distance) every pixel the crease rule flags is still
+/// flagged. The same ripples in a diffuse mesh are creases, as before.
 #[test]
 fn ripples_finer_than_a_pixel_in_glass_are_no_edges_but_its_outlines_are() {
     let dir = tempfile::tempdir().unwrap();
-    // Rippled sheet: x in [-1, 1], y in [0, 2], at z = 0, displaced along z by 0.01 sin
-    // (300 x): a period of 0.02, under a tenth of a pixel at this distance. Then a flat sheet
-    // of the same mesh behind its top, wider, leaning back by 30 degrees (its normal more than
-    // 26 degrees from every ripple's: where the normals agree, the corners are one surface
-    // whatever their distances, as before).
+    // Rippled sheet: x in [-1, 1], y in [0, 2], at z = 0, displaced along z by 0.01 (sin 150 x
+    // + sin 150 y): a period of 0.04, under half a pixel at this distance, and ten triangles
+    // to a pixel along each axis, so that a pixel's corners meet three or four facets. Then a
+    // flat sheet of the same mesh behind its top, wider, leaning back by 30 degrees.
     let mut obj = String::new();
-    let (nx, ny) = (400, 4);
+    let (nx, ny) = (200, 200);
     for j in 0..=ny {
         for i in 0..=nx {
             let x = -1.0 + 2.0 * i as f64 / nx as f64;
             let y = 2.0 * j as f64 / ny as f64;
-            let z = 0.01 * (300.0 * x).sin();
+            let z = 0.01 * ((150.0 * x).sin() + (150.0 * y).sin());
             obj += &format!("v {x} {y} {z}\n");
         }
     }
@@ -210,51 +212,67 @@ material = "{material}"
         )
         .unwrap()
     };
-    let count = |scene: &Scene| {
+    // Per pixel: whether all, some or none of its corners meet the rippled sheet, its flag,
+    // and what the crease rule alone (any two corners not one smooth surface) says.
+    let pixels = |scene: &Scene| {
         let device = Device::new().unwrap();
         let embree = scene.build_embree(&device).unwrap();
         let (w, h) = (scene.camera.width, scene.camera.height);
         let (edge, _) = edge_pixels(scene, &embree, (0, 0, w, h));
-        // Pixels whose centre ray meets the rippled sheet, and the edge pixels among them
-        // that are not on its outline (all four corners on the rippled sheet).
-        let near = |x: f64, y: f64| {
-            let r = scene.camera.ray(x, y, 1.0);
+        let corner = |x: u32, y: u32| {
+            let r = scene.camera.ray(x as f64, y as f64, 1.0);
             embree
                 .intersect(&Ray::new(r.p, r.d))
-                .is_some_and(|hit| hit.position.z > -1.0)
+                .map(|hit| CornerHit::of(scene, &hit))
         };
-        let (mut inside, mut inside_edges, mut outline_edges) = (0, 0, 0);
+        let mut out = Vec::new();
         for y in 0..h {
             for x in 0..w {
-                let (fx, fy) = (x as f64, y as f64);
-                let corners = [
-                    (fx, fy),
-                    (fx + 1.0, fy),
-                    (fx, fy + 1.0),
-                    (fx + 1.0, fy + 1.0),
+                let c = [
+                    corner(x, y),
+                    corner(x + 1, y),
+                    corner(x, y + 1),
+                    corner(x + 1, y + 1),
                 ];
-                let on = corners.iter().filter(|&&(cx, cy)| near(cx, cy)).count();
-                let e = edge[(y * w + x) as usize];
-                if on == 4 {
-                    inside += 1;
-                    inside_edges += e as u32;
-                } else if on > 0 {
-                    outline_edges += e as u32;
-                    assert!(e, "pixel ({x}, {y}) on the outline is not an edge");
-                }
+                let on = c
+                    .iter()
+                    .filter(|c| c.is_some_and(|c| c.distance < 7.0))
+                    .count();
+                let crease = (0..4).any(|a| (a + 1..4).any(|b| !same_surface(c[a], c[b])));
+                out.push((on, edge[(y * w + x) as usize], crease));
             }
         }
-        (inside, inside_edges, outline_edges)
+        out
     };
-    let (inside, glass_edges, glass_outline) = count(&scene_of("glass"));
-    assert!(inside > 300, "{inside} pixels inside the rippled sheet");
-    assert_eq!(glass_edges, 0, "ripples in glass flagged as edges");
-    assert!(glass_outline > 30, "{glass_outline} outline pixels");
-    let (_, diffuse_edges, _) = count(&scene_of("white"));
-    // (340 of 420 here: the corners of the rest happen to agree within 26 degrees.)
+    let glass = pixels(&scene_of("glass"));
+    let inside: Vec<_> = glass.iter().filter(|p| p.0 == 4).collect();
+    let outline: Vec<_> = glass.iter().filter(|p| p.0 > 0 && p.0 < 4).collect();
+    let creases = inside.iter().filter(|p| p.2).count();
+    assert!(inside.len() > 300, "{} pixels inside", inside.len());
     assert!(
-        diffuse_edges > inside * 2 / 3,
-        "{diffuse_edges} of {inside} rippled diffuse pixels are creases"
+        creases > inside.len() * 2 / 3,
+        "{creases} of {} inside are creases",
+        inside.len()
+    );
+    assert!(inside.iter().all(|p| !p.1), "ripples in glass flagged");
+    assert!(outline.len() > 30, "{} outline pixels", outline.len());
+    assert!(
+        outline.iter().all(|p| p.1 == p.2),
+        "an outline pixel lost its flag"
+    );
+    let flagged = outline.iter().filter(|p| p.1).count();
+    assert!(
+        flagged > outline.len() / 2,
+        "{flagged} of {} outline pixels flagged",
+        outline.len()
+    );
+    // Diffuse: the rule is the crease rule, pixel for pixel.
+    let diffuse = pixels(&scene_of("white"));
+    assert!(diffuse.iter().all(|p| p.1 == p.2));
+    assert_eq!(
+        diffuse.iter().filter(|p| p.0 == 4 && p.1).count(),
+        creases,
+        "the same ripples, diffuse"
     );
 }
 

@@ -1,12 +1,13 @@
 //! Pixels on a geometric edge: where the rays through a pixel's four corners first meet
 //! different surfaces (an object's outline against what lies behind it, two walls meeting), or
 //! one mesh whose normal turns by more than [`CREASE_COSINE`] allows between them (a crease, a
-//! mesh's outline against itself). On a mirror or glass mesh a turning normal is an edge only
-//! where the corners' distances jump ([`SPECULAR_JUMP`]: the mesh's outline against itself):
-//! a crease there is not where a footprint is integrated (the path goes on through it), and a
-//! finely displaced glass mesh turns its normal within almost every pixel it covers. (Flagged
+//! mesh's outline against itself). But not a mirror or glass mesh rippled finer than the pixel
+//! ([`finer_than_the_pixel`]: three or more facets among the four corners, and no jump in
+//! distance): a finely displaced glass mesh turns its normal within almost every pixel it
+//! covers, and its pixels are no edges but texture, which the path goes on through. (Flagged
 //! as creases, 58% of the production scene's pixels were edges; a long `integrated` run, whose
-//! edge grid of 8 renders each edge pixel as 64 cells, took 17 times as long a pass.)
+//! edge grid of 8 renders each edge pixel as 64 cells, took 17 times as long a pass.) A crease
+//! between two facets shows two, and stays an edge.
 //!
 //! Such a pixel sees two surfaces, but its one camera ray finds one of them, and an estimate
 //! that integrates over the ray's footprint (`integrated`, final gathering's disc) spreads that
@@ -28,12 +29,16 @@ use glam::DVec3;
 /// facets of a tessellated curve (a 64-segment sphere's neighbours differ by under 6 degrees).
 pub const CREASE_COSINE: f64 = 0.9;
 
-/// Corner rays meeting one mirror or glass mesh see one surface, whatever its normals, while
-/// their distances differ by at most this fraction of the nearer: a continuous surface one
-/// pixel's angle across (about 1.5 mrad for 40 degrees over 480 rows) changes its distance by
-/// more only where it is within about a degree of grazing; the mesh's outline against itself
-/// (a ring's far side behind its near one) jumps by its thickness.
+/// Corner rays meeting one rippled mirror or glass mesh ([`finer_than_the_pixel`]) see one
+/// surface while their distances differ by at most this fraction of the nearer: a continuous
+/// surface one pixel's angle across (about 1.5 mrad for 40 degrees over 480 rows) changes its
+/// distance by more only where it is within about a degree of grazing; the mesh's outline
+/// against itself (a ring's far side behind its near one) jumps by its thickness.
 pub const SPECULAR_JUMP: f64 = 0.1;
+
+/// Corner rays' normals closer than this cosine (about 0.26 degrees) lie on one facet: the
+/// triangles of one flat face agree to their vertices' rounding.
+const SAME_FACET_COSINE: f64 = 0.99999;
 
 /// What a corner ray meets first.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -61,19 +66,37 @@ impl CornerHit {
 }
 
 /// Whether two corner rays' first hits lie on one smooth surface: the same mesh, with normals
-/// within [`CREASE_COSINE`], or on a mirror or glass mesh without a jump in distance.
+/// within [`CREASE_COSINE`].
 pub fn same_surface(a: Option<CornerHit>, b: Option<CornerHit>) -> bool {
     match (a, b) {
         (None, None) => true,
-        (Some(a), Some(b)) => {
-            a.geom_id == b.geom_id
-                && (a.normal.dot(b.normal) >= CREASE_COSINE
-                    || (a.specular
-                        && (a.distance - b.distance).abs()
-                            <= SPECULAR_JUMP * a.distance.min(b.distance)))
-        }
+        (Some(a), Some(b)) => a.geom_id == b.geom_id && a.normal.dot(b.normal) >= CREASE_COSINE,
         _ => false,
     }
+}
+
+/// Whether a pixel's four corner rays meet one mirror or glass mesh rippled finer than the
+/// pixel: the same specular mesh at every corner, no two distances apart by more than
+/// [`SPECULAR_JUMP`] of the nearer, and three or more facets among the corners' normals (a
+/// crease between two faces shows two).
+pub fn finer_than_the_pixel(corners: &[Option<CornerHit>; 4]) -> bool {
+    let Some(hits) = corners.iter().copied().collect::<Option<Vec<CornerHit>>>() else {
+        return false;
+    };
+    let one_mesh = hits
+        .iter()
+        .all(|h| h.specular && h.geom_id == hits[0].geom_id);
+    let continuous = hits.iter().all(|a| {
+        hits.iter()
+            .all(|b| (a.distance - b.distance).abs() <= SPECULAR_JUMP * a.distance.min(b.distance))
+    });
+    let mut facets: Vec<DVec3> = Vec::with_capacity(4);
+    for h in &hits {
+        if !facets.iter().any(|n| n.dot(h.normal) >= SAME_FACET_COSINE) {
+            facets.push(h.normal);
+        }
+    }
+    one_mesh && continuous && facets.len() >= 3
 }
 
 /// Which pixels of the rectangle `[x0, x1) x [y0, y1)` lie on a geometric edge (row-major,
@@ -110,6 +133,7 @@ pub fn edge_pixels(
             let c =
                 [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)].map(|(i, j)| surface[j * cw + i]);
             (0..4).any(|a| (a + 1..4).any(|b| !same_surface(c[a], c[b])))
+                && !finer_than_the_pixel(&c)
         })
         .collect();
     (edges, corners.len() as u64)
