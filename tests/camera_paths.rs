@@ -9,6 +9,7 @@ use photondiff::render::{render, RenderOptions};
 use photondiff::scene::file::parse_scene;
 use photondiff::scene::Scene;
 use std::path::Path;
+use std::process::Command;
 
 /// Two glass balls side by side over a floor under a point light, seen from above at an angle:
 /// camera paths enter one ball, leave it, and some meet the other (several glass surfaces a
@@ -157,4 +158,50 @@ fn chosen_branches_are_the_same_on_any_thread_count() {
     assert!(one == two, "images differ between 1 and 2 threads");
     let (other, _) = render_with(&scene, &options.with_seed(12));
     assert!(one != other, "the seed chooses nothing");
+}
+
+/// A render whose camera paths split into many rays says `--split-depth` exists, once, with the
+/// rays a camera ray; one that chose its branches, or met little glass, or `--quiet`, does not.
+#[test]
+fn a_render_of_many_glass_surfaces_notes_the_split_depth() {
+    let exe = env!("CARGO_BIN_EXE_photondiff");
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let run = |scene: &str, extra: &[&str]| {
+        let out = Command::new(exe)
+            .arg("render")
+            .arg(root.join(scene))
+            .arg("-o")
+            .arg(dir.path().join("o.exr"))
+            .args(["--estimator", "direct", "--threads", "2"])
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(out.status.success());
+        String::from_utf8(out.stderr).unwrap()
+    };
+    let notes = |text: &str| {
+        text.lines()
+            .filter(|l| l.starts_with("photondiff: note:"))
+            .map(str::to_string)
+            .collect::<Vec<_>>()
+    };
+    // Glass behind glass: 8.8 specular rays a camera ray.
+    let glass = run("scenes/stress/glass-through-glass.toml", &[]);
+    assert_eq!(
+        notes(&glass),
+        ["photondiff: note: 8.8 specular rays a camera ray: every glass surface splits a camera \
+          path in two; --split-depth 1 takes one branch, chosen by Fresnel, past the first (the \
+          same image in expectation, noisier and cheaper a pass)"]
+    );
+    let chosen = run(
+        "scenes/stress/glass-through-glass.toml",
+        &["--split-depth", "3"],
+    );
+    assert!(notes(&chosen).is_empty(), "{chosen}");
+    let quiet = run("scenes/stress/glass-through-glass.toml", &["--quiet"]);
+    assert!(notes(&quiet).is_empty(), "{quiet}");
+    // One glass sphere: about half a ray.
+    let canonical = run("scenes/caustic-sphere.toml", &[]);
+    assert!(notes(&canonical).is_empty(), "{canonical}");
 }
