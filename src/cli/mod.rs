@@ -20,6 +20,7 @@ pub mod photons;
 pub mod reference;
 pub mod render;
 pub mod report;
+pub mod resolution;
 
 use outputs::resolved;
 pub use outputs::{

@@ -22,6 +22,12 @@ pub struct ReferenceArgs {
     /// Output EXR; the halves go to OUT-a.exr and OUT-b.exr beside it.
     #[arg(short = 'o', long = "output", value_name = "OUT.exr")]
     output: PathBuf,
+    /// Image size in pixels, WIDTHxHEIGHT (such as 320x240), instead of the scene file's: the
+    /// same eye, view and vertical field of view (another aspect ratio widens or narrows the
+    /// view across), for a preview or a test at a fraction of the final size without an
+    /// edited copy of the scene.
+    #[arg(long, value_name = "WxH", value_parser = super::resolution::parse)]
+    resolution: Option<super::resolution::Resolution>,
     /// Light paths leaving the lights in every direction (light that bounced at least once);
     /// at most 10^11, rounded up to an even number of whole chunks of 65536 (at least two: one
     /// for each half).
@@ -178,6 +184,24 @@ impl Parts {
             if let Some(other) = scene.as_ref().filter(|h| *h != hash) {
                 return Err(format!(
                     "{}: a reference of another scene ({SCENE_KEY} {other}, this scene's {hash})",
+                    path.display()
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Parts {
+    /// Refuses a part of another size than the camera's, `width` x `height` (the scene file's
+    /// or `--resolution`'s): the regions and the masks are found on the camera's pixels.
+    fn check_size(&self, width: u32, height: u32) -> Result<(), String> {
+        for ((path, _), reference) in self.scenes.iter().zip(&self.references) {
+            let (w, h) = (reference.film.width, reference.film.height);
+            if (w, h) != (width, height) {
+                return Err(format!(
+                    "{}: a {w} x {h} reference, but the camera renders {width} x {height} \
+                     (made with --resolution? give the same --resolution {w}x{h} to merge it)",
                     path.display()
                 ));
             }
@@ -372,15 +396,16 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         true => None,
         false => Some(stats.time("read references", || read_parts(&args.merge))?),
     };
-    let (scene, hash) = stats.time("load scene", || {
+    let (mut scene, hash) = stats.time("load scene", || {
         super::load_scene(&args.scene, !args.quiet, &outputs)
     })?;
+    super::resolution::apply(&mut scene, args.resolution);
     let (width, height) = (scene.camera.width, scene.camera.height);
+    if let Some(parts) = &parts {
+        parts.check_size(width, height)?;
+    }
     photondiff::render::film::check_image_memory(
-        &format!(
-            "{}: camera: {width} x {height} pixels",
-            args.scene.display()
-        ),
+        &super::resolution::describe(&args.scene, args.resolution, (width, height)),
         "to render",
         u64::from(width) * u64::from(height),
         REFERENCE_PEAK_BYTES_PER_PIXEL,

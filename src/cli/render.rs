@@ -45,6 +45,12 @@ pub struct RenderArgs {
     /// where -o is a device or pipe, such as /dev/null).
     #[arg(long, value_name = "OUT.png")]
     png: Option<PathBuf>,
+    /// Image size in pixels, WIDTHxHEIGHT (such as 320x240), instead of the scene file's: the
+    /// same eye, view and vertical field of view (another aspect ratio widens or narrows the
+    /// view across), for a preview or a test at a fraction of the final size without an
+    /// edited copy of the scene.
+    #[arg(long, value_name = "WxH", value_parser = super::resolution::parse)]
+    resolution: Option<super::resolution::Resolution>,
     /// Camera rays per pixel along each axis: N x N on a regular grid, each ray's differential
     /// spanning 1/N of the pixel, box-filtered.
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=64))]
@@ -285,9 +291,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let mut range_sum = None;
     super::start_trace(args.trace.as_deref())?;
     let mut stats = Stats::of_this_build();
-    let (scene, hash) = stats.time("load scene", || {
+    let (mut scene, hash) = stats.time("load scene", || {
         super::load_scene(&args.scene, !args.quiet, &outputs)
     })?;
+    super::resolution::apply(&mut scene, args.resolution);
     let (width, height) = (scene.camera.width, scene.camera.height);
     let window = match &tile {
         Some(tile) => Some(tile.window(width, height)?),
@@ -303,10 +310,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         } else {
             let what = match &tile {
                 Some(_) => format!("--tile: its {part_pixels} pixels"),
-                None => format!(
-                    "{}: camera: {width} x {height} pixels",
-                    args.scene.display()
-                ),
+                None => super::resolution::describe(&args.scene, args.resolution, (width, height)),
             };
             film::check_image_memory(&what, "to render", part_pixels, film::PEAK_BYTES_PER_PIXEL)
         }
