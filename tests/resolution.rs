@@ -181,3 +181,66 @@ fn bad_resolutions_are_refused_with_what_is_expected() {
         }
     }
 }
+
+/// Tiles rendered at a `--resolution` merge into the whole render at that size, bit for bit,
+/// and a tile of another size is refused by `merge`, naming both sizes.
+#[test]
+fn tiles_at_a_resolution_merge_into_the_whole_image_at_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = write_scene(dir.path(), "small.toml", SMALL_SCENE);
+    let render = |out: &Path, size: &str, tile: Option<&str>| {
+        let mut args: Vec<&OsStr> = vec!["render".as_ref(), file.as_os_str(), "-o".as_ref()];
+        args.extend([
+            out.as_os_str(),
+            OsStr::new("--resolution"),
+            OsStr::new(size),
+        ]);
+        args.extend(
+            [
+                "--passes",
+                "1",
+                "--caustic-photons",
+                "4000",
+                "--photons",
+                "2000",
+                "-q",
+            ]
+            .map(OsStr::new),
+        );
+        if let Some(t) = tile {
+            args.extend([OsStr::new("--tile"), OsStr::new(t)]);
+        }
+        run_ok(&args);
+    };
+    let whole = dir.path().join("whole.exr");
+    render(&whole, "40x48", None);
+    let parts: Vec<_> = (0..3)
+        .map(|i| {
+            let out = dir.path().join(format!("tile{i}.exr"));
+            render(&out, "40x48", Some(&format!("{i}/3")));
+            out
+        })
+        .collect();
+    let merged = dir.path().join("merged.exr");
+    let mut args: Vec<&OsStr> = vec!["merge".as_ref(), "-o".as_ref(), merged.as_os_str()];
+    args.extend(parts.iter().map(|p| p.as_os_str()));
+    run_ok(&args);
+    let (m, w) = (read_part(&merged).unwrap(), read_part(&whole).unwrap());
+    assert_eq!(m.display, (40, 48));
+    assert_eq!(m.film.pixels, w.film.pixels);
+    // A tile of the scene file's own size among them.
+    let other = dir.path().join("other.exr");
+    render(&other, "32x24", Some("0/2"));
+    let refused = dir.path().join("refused.exr");
+    let mut args: Vec<&OsStr> = vec!["merge".as_ref(), "-o".as_ref(), refused.as_os_str()];
+    args.extend([parts[0].as_os_str(), other.as_os_str()]);
+    let stderr = error_of(&args);
+    assert!(
+        stderr.contains(&format!(
+            "{} is a 32 x 24 image but {} is 40 x 48",
+            other.display(),
+            parts[0].display()
+        )),
+        "{stderr}"
+    );
+}

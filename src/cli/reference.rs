@@ -190,9 +190,7 @@ impl Parts {
         }
         Ok(())
     }
-}
 
-impl Parts {
     /// Refuses a part of another size than the camera's, `width` x `height` (the scene file's
     /// or `--resolution`'s): the regions and the masks are found on the camera's pixels.
     fn check_size(&self, width: u32, height: u32) -> Result<(), String> {
