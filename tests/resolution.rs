@@ -12,6 +12,16 @@ use std::process::Command;
 
 const EXE: &str = env!("CARGO_BIN_EXE_photondiff");
 
+/// One pass of a few photons: enough for an image with light in it, in a fraction of a second.
+const FEW: [&str; 6] = [
+    "--passes",
+    "1",
+    "--caustic-photons",
+    "4000",
+    "--photons",
+    "2000",
+];
+
 /// Standard error of a run that must fail with status 1 (an error, not a panic).
 fn error_of(args: &[&OsStr]) -> String {
     let out = Command::new(EXE).args(args).output().unwrap();
@@ -40,25 +50,17 @@ fn a_resolution_renders_what_the_scene_file_at_that_size_renders() {
         let copy = write_scene(dir.path(), &format!("copy{w}x{h}.toml"), &sized);
         let (given, edited) = (dir.path().join("given.exr"), dir.path().join("edited.exr"));
         let size = format!("{w}x{h}");
-        let common = [
-            "--passes",
-            "1",
-            "--caustic-photons",
-            "4000",
-            "--photons",
-            "2000",
-        ];
         let mut args: Vec<&OsStr> = vec!["render".as_ref(), file.as_os_str(), "-o".as_ref()];
         args.extend([
             given.as_os_str(),
             OsStr::new("--resolution"),
             OsStr::new(&size),
         ]);
-        args.extend(common.iter().map(OsStr::new));
+        args.extend(FEW.map(OsStr::new));
         run_ok(&args);
         let mut args: Vec<&OsStr> = vec!["render".as_ref(), copy.as_os_str(), "-o".as_ref()];
         args.push(edited.as_os_str());
-        args.extend(common.iter().map(OsStr::new));
+        args.extend(FEW.map(OsStr::new));
         run_ok(&args);
         let (a, b) = (read_part(&given).unwrap(), read_part(&edited).unwrap());
         assert_eq!((a.display, b.display), ((w, h), (w, h)));
@@ -195,18 +197,8 @@ fn tiles_at_a_resolution_merge_into_the_whole_image_at_it() {
             OsStr::new("--resolution"),
             OsStr::new(size),
         ]);
-        args.extend(
-            [
-                "--passes",
-                "1",
-                "--caustic-photons",
-                "4000",
-                "--photons",
-                "2000",
-                "-q",
-            ]
-            .map(OsStr::new),
-        );
+        args.extend(FEW.map(OsStr::new));
+        args.push(OsStr::new("-q"));
         if let Some(t) = tile {
             args.extend([OsStr::new("--tile"), OsStr::new(t)]);
         }
