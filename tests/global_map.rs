@@ -3,7 +3,7 @@
 //! still renders a finite image.
 
 use photondiff::photons::map::PathClass;
-use photondiff::photons::trace::{max_emissions, GLOBAL_EMISSIONS_PER_PHOTON};
+use photondiff::photons::trace::{emission_cap, max_emissions, GLOBAL_EMISSIONS_PER_PHOTON};
 use photondiff::render::film::Film;
 use std::path::Path;
 use std::process::Command;
@@ -93,17 +93,25 @@ fn the_global_map_holds_the_photons_asked_for_or_says_why_not() {
     assert!(global["emitted"].as_u64().unwrap() < max_emissions(PathClass::Global, 2000));
     assert!(!stderr.contains("warning"), "{stderr}");
 
-    // A floor alone: light leaves after its one diffuse bounce, nothing is ever stored.
-    let (stderr, global, film) = render(dir.path(), HEAD, Some(2000));
-    let cap = 2000 * GLOBAL_EMISSIONS_PER_PHOTON;
-    assert_eq!(max_emissions(PathClass::Global, 2000), cap);
+    // A floor alone: light leaves after its one diffuse bounce, nothing is ever stored. The
+    // light, 1 above the middle of a floor 4 across, draws its photons from the cone out to
+    // the floor's corners (cos 1/3): a third of its sphere, and a third of the cap.
+    let (stderr, global, film) = render(dir.path(), HEAD, Some(6000));
+    let share = floor_alone_share(dir.path());
+    assert!((share - 1.0 / 3.0).abs() < 1e-8, "{share}");
+    assert_eq!(
+        max_emissions(PathClass::Global, 6000),
+        6000 * GLOBAL_EMISSIONS_PER_PHOTON
+    );
+    let cap = emission_cap(PathClass::Global, 6000, share);
+    assert!((8000..=8001).contains(&cap), "{cap}");
     assert_eq!(global["stored"], 0);
     assert_eq!(global["emitted"], cap);
     assert_eq!(global["cap_reached"], true);
     assert_eq!(
         stderr.trim(),
         format!(
-            "photondiff: warning: {}: global map: 0 of 2000 photons stored: emission stopped at \
+            "photondiff: warning: {}: global map: 0 of 6000 photons stored: emission stopped at \
              its cap of {cap} emissions; this scene rarely stores such photons",
             dir.path().join("scene.toml").display()
         )
@@ -143,10 +151,18 @@ fn the_global_map_holds_the_photons_asked_for_or_says_why_not() {
     assert_eq!(global["stored"], 0);
     assert_eq!(
         global["emitted"],
-        max_emissions(PathClass::Global, asked as usize)
+        emission_cap(PathClass::Global, asked as usize, share)
     );
     assert_eq!(global["cap_reached"], true);
     assert_eq!(stderr.trim(), "");
+}
+
+/// The share of its whole emission that the floor-alone scene's light draws its global
+/// photons from (the scene written in `dir` by `render`; the render uses no aimed emission).
+fn floor_alone_share(dir: &Path) -> f64 {
+    use photondiff::photons::emission::Emitter;
+    let scene = photondiff::scene::file::load_scene(&dir.join("scene.toml")).unwrap();
+    Emitter::global(&scene, 6000, 1.0, 0).share()
 }
 
 /// The canonical scene's global map from 2,000,000 emissions with a share `bounce_aim` of its
@@ -214,12 +230,14 @@ fn aimed_bounces_store_more_global_photons_carrying_the_same_light() {
 }
 
 /// An aimed global emitter stands for the same light: over many emissions from the canonical
-/// scene's point light the mean emitted power is the light's (4 pi I) and the power sent into
-/// the glass sphere's cone is `I` times its solid angle, while far more of its emissions go
-/// there (the aimed share plus the isotropic part's); with no aim it is the plain global
-/// emitter, emission for emission.
+/// scene's point light the mean emitted power is the light's into the cone that holds the
+/// scene (`I` times its solid angle: directions outside it meet nothing and are not drawn)
+/// and the power sent into the glass sphere's cone is `I` times its solid angle, while far
+/// more of its emissions go there (the aimed share plus the isotropic part's); with no aim it
+/// is the plain global emitter, emission for emission.
 #[test]
 fn aimed_emissions_carry_the_lights_power_and_favour_the_specular_objects() {
+    use photondiff::photons::emission::scene_cone::scene_cone;
     use photondiff::photons::emission::Emitter;
     use photondiff::photons::targets::{cone, cone_solid_angle, specular_targets};
     use photondiff::util::rng::Rng;
@@ -249,10 +267,16 @@ fn aimed_emissions_carry_the_lights_power_and_favour_the_specular_objects() {
         }
         (total / n as f64, into / n as f64, count as f64 / n as f64)
     };
+    // Both emitters draw from the cone that holds the scene's box, of solid angle
+    // `scene_omega`: their mean power is the power the light sends into it.
+    let scene_cone = scene_cone(light, scene.bounds().unwrap()).expect("the light is outside");
+    let scene_omega = scene_cone.solid_angle();
+    let whole = scene_omega / (4.0 * std::f64::consts::PI);
+    assert!(whole > 0.3 && whole < 0.6, "{whole}");
     let aim = 0.3;
     let aimed = Emitter::global_aimed(&scene, 1000, 32.0, 0, aim);
     let (total, into, share) = sums(&aimed);
-    let power = 4.0 * std::f64::consts::PI * intensity;
+    let power = scene_omega * intensity;
     assert!(
         (total / power - 1.0).abs() < 0.005,
         "{total} against {power}"
@@ -262,7 +286,17 @@ fn aimed_emissions_carry_the_lights_power_and_favour_the_specular_objects() {
         "{into} into the cone against {}",
         intensity * omega
     );
-    let expected = aim + (1.0 - aim) * omega / (4.0 * std::f64::consts::PI);
+    // The aimed part is drawn whole and the isotropic part narrowed to the scene's cone (the
+    // emitter's `share` of the light's whole emission), so of the emissions the aimed part
+    // is `aim / share` and the isotropic part's `(1 - aim) whole / share` falls in the sphere's
+    // cone by its share of the scene's cone.
+    let emitter_share = aim + (1.0 - aim) * whole;
+    assert!(
+        (aimed.share() - emitter_share).abs() < 1e-12,
+        "{}",
+        aimed.share()
+    );
+    let expected = (aim + (1.0 - aim) * whole * omega / scene_omega) / emitter_share;
     assert!(
         (share - expected).abs() < 0.01,
         "{share} against {expected}"
@@ -308,5 +342,96 @@ fn aimed_emissions_store_more_global_photons_carrying_the_same_light() {
     assert!(
         (aimed - plain).abs() <= 4.0 * sigma,
         "aimed {aimed} against {plain} (standard error {sigma})"
+    );
+}
+
+/// The solid angle of triangle `abc` seen from the origin (Van Oosterom and Strackee).
+fn triangle_solid_angle(a: glam::DVec3, b: glam::DVec3, c: glam::DVec3) -> f64 {
+    let (la, lb, lc) = (a.length(), b.length(), c.length());
+    let numerator = a.dot(b.cross(c)).abs();
+    let denominator = la * lb * lc + a.dot(b) * lc + a.dot(c) * lb + b.dot(c) * la;
+    2.0 * numerator.atan2(denominator)
+}
+
+/// A point light's global photons are drawn only towards the scene (the cone that holds its
+/// box), and stand for the same light there: from the canonical scene's light, the power its
+/// emissions carry onto the floor is `I` times the floor's solid angle (exact, from two
+/// triangles), within 0.5%, with well under half of the light's sphere drawn from. Where the
+/// box holds the light (a speck far above it) the whole sphere is drawn, and the floor gets
+/// the same power.
+#[test]
+fn global_photons_are_drawn_towards_the_scene_and_carry_its_light() {
+    use glam::DVec3;
+    use photondiff::photons::emission::Emitter;
+    use photondiff::util::rng::Rng;
+    let path = Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/caustic-sphere.toml"
+    ));
+    let text = std::fs::read_to_string(path).unwrap();
+    let light = DVec3::new(-4.0, 4.0, -1.0);
+    let intensity = 60.0;
+    assert!(text.contains("position = [-4.0, 4.0, -1.0]") && text.contains("60.0, 60.0, 60.0"));
+    // The floor: y = 0, x and z in [-6, 6].
+    let corners = [
+        DVec3::new(-6.0, 0.0, -6.0),
+        DVec3::new(6.0, 0.0, -6.0),
+        DVec3::new(6.0, 0.0, 6.0),
+        DVec3::new(-6.0, 0.0, 6.0),
+    ]
+    .map(|c| c - light);
+    let floor_omega = triangle_solid_angle(corners[0], corners[1], corners[2])
+        + triangle_solid_angle(corners[0], corners[2], corners[3]);
+    let onto_floor = |emitter: &Emitter| {
+        let n = 400_000u64;
+        let mut power = 0.0;
+        for i in 0..n {
+            let e = emitter.emit(i, &mut Rng::new(5, i)).unwrap();
+            let d = e.ray.d;
+            if d.y < 0.0 {
+                let p = light + d * (-light.y / d.y);
+                if p.x.abs() <= 6.0 && p.z.abs() <= 6.0 {
+                    power += e.power.y;
+                }
+            }
+        }
+        power / n as f64
+    };
+    let expected = intensity * floor_omega;
+    let scene = photondiff::scene::file::load_scene(path).unwrap();
+    let narrowed = Emitter::global(&scene, 1000, 1.0, 0);
+    assert!(
+        narrowed.share() > 0.3 && narrowed.share() < 0.5,
+        "{}",
+        narrowed.share()
+    );
+    let power = onto_floor(&narrowed);
+    assert!(
+        (power / expected - 1.0).abs() < 0.005,
+        "{power} against {expected}"
+    );
+
+    // A speck far above the light puts it inside the scene's box: the whole sphere.
+    let dir = tempfile::tempdir().unwrap();
+    let speck = dir.path().join("speck.toml");
+    std::fs::write(
+        &speck,
+        format!(
+            "{text}\n[[shapes]]\ntype = \"quad\"\ncorner = [0.0, 50.0, 0.0]\n\
+             edge_u = [0.001, 0.0, 0.0]\nedge_v = [0.0, 0.0, 0.001]\nmaterial = \"floor\"\n"
+        ),
+    )
+    .unwrap();
+    let whole = Emitter::global(
+        &photondiff::scene::file::load_scene(&speck).unwrap(),
+        1000,
+        1.0,
+        0,
+    );
+    assert_eq!(whole.share(), 1.0);
+    let power = onto_floor(&whole);
+    assert!(
+        (power / expected - 1.0).abs() < 0.005,
+        "{power} against {expected}"
     );
 }

@@ -120,9 +120,12 @@ fn photon_differential_irradiance_matches_a_point_light() {
         )
         .unwrap();
     // The plane's share of the sphere of directions: a square of half-side a at distance h
-    // subtends 4 asin(a^2 / (a^2 + h^2)).
+    // subtends 4 asin(a^2 / (a^2 + h^2)). The emissions are drawn from the cone out to its
+    // corners (cos = h / sqrt(h^2 + 2 a^2)), the emitter's share of the sphere.
     let fraction = 4.0 * (400.0f64 / 404.0).asin() / (4.0 * PI);
-    let expected = 800_000.0 * fraction;
+    let cone = (1.0 - 2.0 / 804.0f64.sqrt()) / 2.0;
+    assert!((emitter.share() - cone).abs() < 1e-8, "{}", emitter.share());
+    let expected = 800_000.0 * fraction / emitter.share();
     assert!(
         (counts.stored as f64 / expected - 1.0).abs() < 0.002,
         "{} vs {expected}",
@@ -898,8 +901,18 @@ fn a_caustic_map_that_stores_nothing_stops_early() {
         hidden_light.emitted >= early && hidden_light.emitted < early + 4096,
         "{hidden_light:?}"
     );
-    assert!(emission_stopped(PathClass::Caustic, asked, &hidden_light));
+    assert!(emission_stopped(
+        PathClass::Caustic,
+        asked,
+        1.0,
+        &hidden_light
+    ));
     let canonical = counts(&text);
     assert_eq!(canonical.stored, asked as u64);
-    assert!(!emission_stopped(PathClass::Caustic, asked, &canonical));
+    assert!(!emission_stopped(
+        PathClass::Caustic,
+        asked,
+        1.0,
+        &canonical
+    ));
 }

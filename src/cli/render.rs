@@ -382,7 +382,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         let maps = match (&args.photon_maps, kind) {
             (Some(path), kind) if kind != EstimatorKind::Direct => {
                 let (pass0, _, _) = progressive.pass_settings(0);
-                Some(load_photon_maps(path, hash, &pass0, &mut stats)?)
+                Some(load_photon_maps(path, &scene, hash, &pass0, &mut stats)?)
             }
             _ => None,
         };

@@ -31,6 +31,7 @@ use glam::DVec3;
 use std::f64::consts::PI;
 
 pub mod batch;
+pub mod scene_cone;
 
 /// One emitted photon before it is traced: its ray differential and its power as if it were
 /// the only photon emitted (the tracer divides by the number of emissions).
@@ -78,8 +79,17 @@ pub fn round_beam(d: DVec3, spread: f64) -> [DVec3; 2] {
     [t1 * spread, t2 * spread]
 }
 
-fn mean(c: DVec3) -> f64 {
+pub(crate) fn mean(c: DVec3) -> f64 {
     (c.x + c.y + c.z) / 3.0
+}
+
+/// `part` over `whole`, within `[0, 1]`; 1 where there is nothing to scale.
+fn share_of(part: f64, whole: f64) -> f64 {
+    if whole > 0.0 && part.is_finite() && part > 0.0 {
+        (part / whole).min(1.0)
+    } else {
+        1.0
+    }
 }
 
 /// One way photons leave a light: the light, and for caustic photons the target sphere.
@@ -114,14 +124,21 @@ pub struct Emitter {
     /// For an aimed global emitter ([`Emitter::global_aimed`]): `sqrt(overlap / (pi N))`, from
     /// which each emission's spread follows its density; `None` for the others.
     mixture_spread: Option<f64>,
+    /// The share of an emitter over the lights' whole emission that these emissions stand
+    /// for ([`Emitter::share`]).
+    share: f64,
 }
 
 impl Emitter {
-    /// Emission of global photons: every light in proportion to its power; `photons` is the
-    /// number expected (it sizes the differentials).
+    /// Emission of global photons: every light in proportion to the power it sends towards the
+    /// scene, a point light's drawn only in the directions that can meet it
+    /// ([`scene_cone::global_cones`]); `photons` is the number expected (it sizes the
+    /// differentials).
     pub fn global(scene: &Scene, photons: usize, overlap: f64, seed: u64) -> Self {
-        let weights: Vec<f64> = scene.lights.iter().map(light_power).collect();
+        let cones = scene_cone::global_cones(scene);
+        let weights: Vec<f64> = cones.iter().map(|&(_, w)| w).collect();
         let total: f64 = weights.iter().sum();
+        let whole: f64 = scene.lights.iter().map(light_power).sum();
         let sources = scene
             .lights
             .iter()
@@ -133,10 +150,10 @@ impl Emitter {
                 let n = (photons as f64 * p).max(1.0);
                 // A quad light's emissions leave its surface over the hemisphere, as light
                 // leaving a diffuse surface does.
-                let solid_angle = match *light {
-                    Light::Point { .. } => 4.0 * PI,
-                    Light::Spot { cos_cone, .. } => cone_solid_angle(cos_cone),
-                    Light::Quad { .. } => 2.0 * PI,
+                let solid_angle = match (*light, cones[light_index].0) {
+                    (Light::Quad { .. }, _) => 2.0 * PI,
+                    (_, Some(cone)) => cone.solid_angle(),
+                    (_, None) => 4.0 * PI,
                 };
                 Source {
                     light: *light,
@@ -145,11 +162,13 @@ impl Emitter {
                     probability: p,
                     spread: (overlap * solid_angle / (PI * n)).sqrt(),
                     position_spread: position_spread(light, overlap, n),
-                    cone: light_cone(light, None),
+                    cone: cones[light_index].0,
                 }
             })
             .collect();
-        Self::new(sources, seed)
+        let mut emitter = Self::new(sources, seed);
+        emitter.share = share_of(total, whole);
+        emitter
     }
 
     /// [`Emitter::global`] with a share `aim` (in `[0, 1)`) of each point or spot light's
@@ -170,12 +189,23 @@ impl Emitter {
         if !(aim > 0.0 && aim < 1.0) || targets.is_empty() {
             return global;
         }
-        let mut sources = Vec::new();
+        // Each light's weight is the whole emission's (its power `P`) times the share of it
+        // these emissions stand for: its aimed part `aim` whole, and its own part `1 - aim`
+        // narrowed to the scene's cone (`global_cones`: the power `w` into it). So a light
+        // draws as many aimed emissions, and as many that can reach the scene, as it did over
+        // its whole sphere, and none that cannot. A light with nothing to aim at keeps `w`.
+        let cones = scene_cone::global_cones(scene);
+        let whole: f64 = scene.lights.iter().map(light_power).sum();
+        let mut sources: Vec<Source> = Vec::new();
         for s in global.sources {
+            let own = cones[s.light_index].1;
             let position = match s.light {
                 Light::Point { position, .. } | Light::Spot { position, .. } => position,
                 Light::Quad { .. } => {
-                    sources.push(s);
+                    sources.push(Source {
+                        probability: own,
+                        ..s
+                    });
                     continue;
                 }
             };
@@ -190,11 +220,15 @@ impl Emitter {
                 .collect();
             let total: f64 = shares.iter().map(|&(_, w)| w).sum();
             if total <= 0.0 {
-                sources.push(s);
+                sources.push(Source {
+                    probability: own,
+                    ..s
+                });
                 continue;
             }
+            let power = light_power(&s.light);
             sources.push(Source {
-                probability: s.probability * (1.0 - aim),
+                probability: own * (1.0 - aim),
                 ..s
             });
             for (t, w) in shares {
@@ -202,16 +236,32 @@ impl Emitter {
                     light: s.light,
                     light_index: s.light_index,
                     target: Some(t),
-                    probability: s.probability * aim * w / total,
+                    probability: power * aim * w / total,
                     spread: 0.0,
                     position_spread: 0.0,
                     cone: light_cone(&s.light, Some(&t)),
                 });
             }
         }
+        // Weights to probabilities.
+        let sum: f64 = sources.iter().map(|s| s.probability).sum();
+        for s in &mut sources {
+            s.probability /= sum;
+        }
         let mut emitter = Self::new(sources, seed);
         emitter.mixture_spread = Some((overlap / (PI * photons.max(1) as f64)).sqrt());
+        emitter.share = share_of(sum, whole);
         emitter
+    }
+
+    /// The share of the lights' whole emission (every light over its whole sphere or
+    /// hemisphere, its aimed part kept) that these emissions stand for: below 1 where a point
+    /// light's global photons are drawn only towards the scene
+    /// ([`scene_cone::global_cones`]), 1 otherwise. A map's cap on its emissions
+    /// ([`crate::photons::trace::emission_cap`]) is scaled by it, so that a capped map draws
+    /// as many emissions that can reach the scene as a whole light's would, and no others.
+    pub fn share(&self) -> f64 {
+        self.share
     }
 
     /// Emission of caustic photons towards the bounding spheres of the specular meshes.
@@ -288,6 +338,7 @@ impl Emitter {
             shift: [rng.uniform(), rng.uniform()],
             random: false,
             mixture_spread: None,
+            share: 1.0,
         }
     }
 
@@ -605,7 +656,7 @@ fn cone_towards(light: &Light, position: DVec3, target: &Target) -> (f64, f64) {
 
 /// The cone a point or spot light's photons are drawn from: towards `target` if given, else
 /// the spot's cone or, for a point light, the whole sphere; `None` for quad lights.
-fn light_cone(light: &Light, target: Option<&Target>) -> Option<Cone> {
+pub(crate) fn light_cone(light: &Light, target: Option<&Target>) -> Option<Cone> {
     let (axis, cos_max) = match (*light, target) {
         (Light::Quad { .. }, _) => return None,
         (Light::Point { position, .. } | Light::Spot { position, .. }, Some(t)) => {

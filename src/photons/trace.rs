@@ -111,10 +111,11 @@ pub const EMISSIONS_PER_PHOTON: u64 = 1000;
 /// of emissions for each asked would hold 1% of them here: nothing worth the rest.
 pub const EMPTY_CAUSTIC_SHARE: u64 = 100;
 
-/// Whether emission for `class` stopped at [`max_emissions`] for `asked` photons, or early
+/// Whether emission for `class` stopped at [`emission_cap`] for `asked` photons (drawn by an
+/// emitter of [`Emitter::share`] `share`), or early
 /// with none stored ([`EMPTY_CAUSTIC_SHARE`]), short of what was asked.
-pub fn emission_stopped(class: PathClass, asked: usize, counts: &TraceCounts) -> bool {
-    let cap = max_emissions(class, asked);
+pub fn emission_stopped(class: PathClass, asked: usize, share: f64, counts: &TraceCounts) -> bool {
+    let cap = emission_cap(class, asked, share);
     counts.stored < asked as u64
         && (counts.emitted >= cap || empty_so_far(class, cap, counts.stored, counts.emitted))
 }
@@ -164,6 +165,17 @@ pub fn max_emissions(class: PathClass, n: usize) -> u64 {
         _ => EMISSIONS_PER_PHOTON,
     };
     (n as u64).saturating_mul(per).max(4096)
+}
+
+/// [`max_emissions`] for a map of `class` drawn by an emitter standing for `share` of the
+/// lights' whole emission ([`Emitter::share`]: a point light's global photons go only where
+/// they can meet the scene): the cap times that share, so that it counts the emissions that
+/// can reach the scene, as many as when every direction was drawn; at least 4096 (or the
+/// whole cap, if smaller).
+pub fn emission_cap(class: PathClass, n: usize, share: f64) -> u64 {
+    let whole = max_emissions(class, n);
+    let scaled = (whole as f64 * share.clamp(0.0, 1.0)).ceil() as u64;
+    scaled.clamp(4096.min(whole), whole)
 }
 
 impl<'a> PhotonTracer<'a> {
@@ -296,7 +308,7 @@ impl<'a> PhotonTracer<'a> {
         const CHUNK: u64 = 256;
         let (target, max_emissions) = match stop {
             // A cap for scenes where the class is rare (it is reported in the statistics).
-            StopRule::Stored(n) => (n, max_emissions(class, n)),
+            StopRule::Stored(n) => (n, emission_cap(class, n, emitter.share())),
             StopRule::Emitted(n) => (usize::MAX, n as u64),
         };
         // A batch's photons, and the count of all taken.

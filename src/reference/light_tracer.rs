@@ -69,7 +69,8 @@ pub struct LightTraceOptions {
     /// Seed. Default 0.
     pub seed: u64,
     /// Paths aimed at the specular meshes (see the module's doc). Default 0: none, every path
-    /// leaves the lights isotropically.
+    /// leaves the lights isotropically (a point light's within the cone that holds the scene's
+    /// box, [`crate::photons::emission::scene_cone`]: the other directions meet nothing).
     pub caustic_paths: u64,
     /// Whether to splat vertices lit directly by a light (no bounce before them). Default true.
     pub direct: bool,

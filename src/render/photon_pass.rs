@@ -58,13 +58,7 @@ pub fn trace_photon_maps(
             )?;
             drop(span);
             let _span = crate::util::trace::span("global map");
-            let global_emitter = Emitter::global_aimed(
-                scene,
-                options.global_photons,
-                options.global_overlap(),
-                options.seed,
-                options.emission_aim(),
-            );
+            let global_emitter = global_emitter(scene, options);
             let stop = StopRule::Stored(options.global_photons);
             if options.radiance_map {
                 // Only what the radiance map reads of each photon is kept.
@@ -124,8 +118,20 @@ pub fn trace_photon_maps(
         }
     };
     bar.finish_and_clear();
-    record(&maps, &counts, options, stats);
+    record(scene, &maps, &counts, options, stats);
     Ok(maps)
+}
+
+/// The global map's emitter for `options` (aimed at the specular objects by
+/// [`PhotonOptions::emission_aim`]).
+fn global_emitter(scene: &Scene, options: &PhotonOptions) -> Emitter {
+    Emitter::global_aimed(
+        scene,
+        options.global_photons,
+        options.global_overlap(),
+        options.seed,
+        options.emission_aim(),
+    )
 }
 
 /// Reads photon maps traced earlier (`photondiff photons`) from `path` instead of tracing
@@ -133,6 +139,7 @@ pub fn trace_photon_maps(
 /// `scene_hash` and traced with `options` (see [`crate::photons::file`]).
 pub fn load_photon_maps(
     path: &std::path::Path,
+    scene: &Scene,
     scene_hash: u64,
     options: &PhotonOptions,
     stats: &mut Stats,
@@ -140,19 +147,22 @@ pub fn load_photon_maps(
     let (maps, counts) = stats.time("load photons", || {
         crate::photons::file::read(path, scene_hash, options)
     })?;
-    record(&maps, &counts, options, stats);
+    record(scene, &maps, &counts, options, stats);
     Ok(maps)
 }
 
 /// Records the maps' statistics (the radiance map's in the global map's place when there is
 /// one).
 fn record(
+    scene: &Scene,
     maps: &PhotonMaps,
     counts: &[TraceCounts; 2],
     options: &PhotonOptions,
     stats: &mut Stats,
 ) {
     let asked = [options.caustic_photons, options.global_photons];
+    // The caps the tracer applied: the global map's scaled by its emitter's share.
+    let shares = [1.0, global_emitter(scene, options).share()];
     let mean = |p: glam::DVec3| (p.x + p.y + p.z) / 3.0;
     let second = match &maps.radiance {
         Some(r) => (
@@ -177,7 +187,9 @@ fn record(
         ),
         second,
     ];
-    for (((class, power, guards), c), asked) in entries.into_iter().zip(counts).zip(asked) {
+    for ((((class, power, guards), c), asked), share) in
+        entries.into_iter().zip(counts).zip(asked).zip(shares)
+    {
         stats.photon_maps.push(MapStats {
             class,
             emitted: c.emitted,
@@ -186,7 +198,7 @@ fn record(
             power,
             guards,
             asked: asked as u64,
-            cap_reached: emission_stopped(class, asked, c),
+            cap_reached: emission_stopped(class, asked, share, c),
         });
     }
 }

@@ -198,7 +198,7 @@ pub struct MapStats {
     pub guards: Guards,
     /// Photons asked for.
     pub asked: u64,
-    /// Whether emission stopped at its cap ([`crate::photons::trace::max_emissions`]), or a
+    /// Whether emission stopped at its cap ([`crate::photons::trace::emission_cap`]), or a
     /// caustic map early with none stored ([`crate::photons::trace::emission_stopped`]), with
     /// fewer photons stored than asked for.
     pub cap_reached: bool,
@@ -208,8 +208,10 @@ impl MapStats {
     /// Whether emission stopped before its cap, with none stored
     /// ([`crate::photons::trace::EMPTY_CAUSTIC_SHARE`]).
     fn stopped_early(&self) -> bool {
+        // Only a caustic map stops before its cap, and only with none stored.
         self.cap_reached
-            && self.emitted < crate::photons::trace::max_emissions(self.class, self.asked as usize)
+            && self.class == crate::photons::map::PathClass::Caustic
+            && self.stored == 0
     }
 
     /// What to tell the user when the map holds fewer photons than asked for, if it does.

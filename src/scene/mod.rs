@@ -399,6 +399,13 @@ impl Scene {
             .max(5e-7 * largest_coordinate)
     }
 
+    /// The bounding box `[lo, hi]` of every mesh in world space (an instance's is its mesh's
+    /// box transformed), `None` for a scene without meshes.
+    pub fn bounds(&self) -> Option<[DVec3; 2]> {
+        let [lo, hi] = bounds(self.mesh_bounds().into_iter().flatten());
+        (lo.x <= hi.x).then_some([lo, hi])
+    }
+
     /// The diagonal of the scene's bounding box (`size_or_default`), to scale ray offsets and
     /// the photons' footprint limits.
     pub fn extent(&self) -> f64 {
