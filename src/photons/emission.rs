@@ -139,6 +139,7 @@ impl Emitter {
         let weights: Vec<f64> = cones.iter().map(|&(_, w)| w).collect();
         let total: f64 = weights.iter().sum();
         let whole: f64 = scene.lights.iter().map(light_power).sum();
+        let share = share_of(total, whole);
         let sources = scene
             .lights
             .iter()
@@ -147,7 +148,10 @@ impl Emitter {
             .filter(|(_, (_, &w))| w > 0.0)
             .map(|(light_index, (light, &w))| {
                 let p = w / total;
-                let n = (photons as f64 * p).max(1.0);
+                // The emissions a light's whole emission would take for the same photons
+                // (`share` of them are drawn): a narrowed cone holds the photons as densely per
+                // steradian as the whole sphere did, so their beams keep their width.
+                let n = (photons as f64 * p * share).max(1.0);
                 // A quad light's emissions leave its surface over the hemisphere, as light
                 // leaving a diffuse surface does.
                 let solid_angle = match (*light, cones[light_index].0) {
@@ -167,7 +171,7 @@ impl Emitter {
             })
             .collect();
         let mut emitter = Self::new(sources, seed);
-        emitter.share = share_of(total, whole);
+        emitter.share = share;
         emitter
     }
 
@@ -248,9 +252,13 @@ impl Emitter {
         for s in &mut sources {
             s.probability /= sum;
         }
+        let share = share_of(sum, whole);
         let mut emitter = Self::new(sources, seed);
-        emitter.mixture_spread = Some((overlap / (PI * photons.max(1) as f64)).sqrt());
-        emitter.share = share_of(sum, whole);
+        // As in `global`: the beams of the emissions the whole lights would take, as wide as
+        // they were before the narrowing (its densities are `1 / share` times theirs).
+        let whole_emissions = photons.max(1) as f64 * share;
+        emitter.mixture_spread = Some((overlap / (PI * whole_emissions)).sqrt());
+        emitter.share = share;
         emitter
     }
 

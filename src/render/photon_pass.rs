@@ -39,6 +39,7 @@ pub fn trace_photon_maps(
     let bar = crate::util::progress::bar(progress, total, "photons");
     // With final gathering the global photons go to the radiance map, whose precomputation is
     // a stage of its own ("radiance map"), so that its cost shows.
+    let global_emitter = global_emitter(scene, options);
     let (caustic, global, counts) = stats.time("trace photons", || {
         pool.install(|| {
             // Each map a span of its own in the trace (`--trace`): they differ in cost by
@@ -58,7 +59,6 @@ pub fn trace_photon_maps(
             )?;
             drop(span);
             let _span = crate::util::trace::span("global map");
-            let global_emitter = global_emitter(scene, options);
             let stop = StopRule::Stored(options.global_photons);
             if options.radiance_map {
                 // Only what the radiance map reads of each photon is kept.
@@ -118,7 +118,7 @@ pub fn trace_photon_maps(
         }
     };
     bar.finish_and_clear();
-    record(scene, &maps, &counts, options, stats);
+    record(&maps, &counts, options, global_emitter.share(), stats);
     Ok(maps)
 }
 
@@ -147,22 +147,24 @@ pub fn load_photon_maps(
     let (maps, counts) = stats.time("load photons", || {
         crate::photons::file::read(path, scene_hash, options)
     })?;
-    record(scene, &maps, &counts, options, stats);
+    // The share the global map's cap was scaled by when it was traced.
+    let share = global_emitter(scene, options).share();
+    record(&maps, &counts, options, share, stats);
     Ok(maps)
 }
 
 /// Records the maps' statistics (the radiance map's in the global map's place when there is
 /// one).
 fn record(
-    scene: &Scene,
     maps: &PhotonMaps,
     counts: &[TraceCounts; 2],
     options: &PhotonOptions,
+    global_share: f64,
     stats: &mut Stats,
 ) {
     let asked = [options.caustic_photons, options.global_photons];
     // The caps the tracer applied: the global map's scaled by its emitter's share.
-    let shares = [1.0, global_emitter(scene, options).share()];
+    let shares = [1.0, global_share];
     let mean = |p: glam::DVec3| (p.x + p.y + p.z) / 3.0;
     let second = match &maps.radiance {
         Some(r) => (
