@@ -422,16 +422,37 @@ fn global_photons_are_drawn_towards_the_scene_and_carry_its_light() {
         ),
     )
     .unwrap();
-    let whole = Emitter::global(
-        &photondiff::scene::file::load_scene(&speck).unwrap(),
-        1000,
-        1.0,
-        0,
-    );
+    let speck = photondiff::scene::file::load_scene(&speck).unwrap();
+    let whole = Emitter::global(&speck, 1000, 1.0, 0);
     assert_eq!(whole.share(), 1.0);
     let power = onto_floor(&whole);
     assert!(
         (power / expected - 1.0).abs() < 0.005,
         "{power} against {expected}"
     );
+
+    // The narrowed cone holds its photons as densely per steradian as the whole sphere held
+    // them (the cap shrinks with it), so their beams are as wide: the footprints, and what
+    // the estimates blur and average, stay as they were. Plain emitters, and the aimed ones'
+    // emissions outside the sphere's cone (where only the isotropic part draws).
+    let beam = |e: &Emitter, i: u64| {
+        let e = e.emit(i, &mut Rng::new(5, i)).unwrap();
+        (e.ray.d, e.ray.dd[0].length())
+    };
+    let (narrow, wide) = (beam(&narrowed, 0).1, beam(&whole, 0).1);
+    assert!((narrow / wide - 1.0).abs() < 1e-12, "{narrow} {wide}");
+    let target = photondiff::photons::targets::specular_targets(&scene)[0];
+    let (axis, cos_max) = photondiff::photons::targets::cone(light, &target);
+    let outside = |e: &Emitter| {
+        (0..1000)
+            .map(|i| beam(e, i))
+            .find(|(d, _)| d.dot(axis) < cos_max)
+            .unwrap()
+            .1
+    };
+    let (narrow, wide) = (
+        outside(&Emitter::global_aimed(&scene, 1000, 32.0, 0, 0.3)),
+        outside(&Emitter::global_aimed(&speck, 1000, 32.0, 0, 0.3)),
+    );
+    assert!((narrow / wide - 1.0).abs() < 1e-12, "{narrow} {wide}");
 }
