@@ -824,20 +824,15 @@ fn a_reference_of_unlit_scene_is_black_and_says_so() {
     let scene = dir.path().join("dark.toml");
     std::fs::write(&scene, text).unwrap();
     let (exr, stats) = (dir.path().join("ref.exr"), dir.path().join("s.json"));
-    let out = common::run_ok([
+    let head: [&std::ffi::OsStr; 4] = [
         "reference".as_ref(),
         scene.as_os_str(),
         "-o".as_ref(),
         exr.as_os_str(),
-        "--light-paths".as_ref(),
-        "131072".as_ref(),
-        "--caustic-paths".as_ref(),
-        "131072".as_ref(),
-        "--direct-grids".as_ref(),
-        "1,2".as_ref(),
-        "--stats-json".as_ref(),
-        stats.as_os_str(),
-    ]);
+    ];
+    let quick = common::QUICK_REFERENCE.map(std::ffi::OsStr::new);
+    let tail: [&std::ffi::OsStr; 2] = ["--stats-json".as_ref(), stats.as_os_str()];
+    let out = common::run_ok([&head[..], &quick, &tail].concat());
     let film = photondiff::render::film::Film::read_exr(&exr).unwrap();
     assert!(film.pixels.iter().all(|&p| p == DVec3::ZERO));
     let json: serde_json::Value =

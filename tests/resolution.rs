@@ -91,23 +91,17 @@ fn references_at_a_resolution_merge_at_that_resolution() {
     let file = write_scene(dir.path(), "small.toml", SMALL_SCENE);
     let part = |seed: &str| {
         let out = dir.path().join(format!("part{seed}.exr"));
-        run_ok([
+        let head: [&OsStr; 6] = [
             "reference".as_ref(),
             file.as_os_str(),
             "-o".as_ref(),
             out.as_os_str(),
             "--resolution".as_ref(),
             "20x10".as_ref(),
-            "--light-paths".as_ref(),
-            "131072".as_ref(),
-            "--caustic-paths".as_ref(),
-            "131072".as_ref(),
-            "--direct-grids".as_ref(),
-            "1,2".as_ref(),
-            "--seed".as_ref(),
-            seed.as_ref(),
-            "-q".as_ref(),
-        ]);
+        ];
+        let quick = common::QUICK_REFERENCE.map(OsStr::new);
+        let tail: [&OsStr; 3] = ["--seed".as_ref(), seed.as_ref(), "-q".as_ref()];
+        run_ok([&head[..], &quick, &tail].concat());
         out
     };
     let (one, two) = (part("1"), part("2"));

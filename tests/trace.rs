@@ -338,8 +338,7 @@ fn an_output_linked_to_a_file_not_yet_written_is_written_through_the_link() {
 #[test]
 fn reference_traces_its_stages_and_writes_its_noise_per_region() {
     let dir = tempfile::tempdir().unwrap();
-    let paths = ["--light-paths", "131072", "--caustic-paths", "131072"];
-    let args = [&paths[..], &["--direct-grids", "1,2", "--quiet"]].concat();
+    let args = [&common::QUICK_REFERENCE[..], &["--quiet"]].concat();
     let (out, trace, stats) = run_traced(dir.path(), "reference", "ref.exr", &args);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(

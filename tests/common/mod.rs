@@ -113,6 +113,18 @@ segments = 32
 material = "glass"
 "#;
 
+/// `photondiff reference` options for a reference made in a moment, for tests that check what
+/// the command writes rather than how little noise it has: 2^17 paths of each kind and the
+/// coarsest direct-light grids whose halves still differ.
+pub const QUICK_REFERENCE: [&str; 6] = [
+    "--light-paths",
+    "131072",
+    "--caustic-paths",
+    "131072",
+    "--direct-grids",
+    "1,2",
+];
+
 /// Runs photondiff with `args` and checks that it succeeded (its standard error the message
 /// where it did not); its output.
 pub fn run_ok<S: AsRef<std::ffi::OsStr>>(
