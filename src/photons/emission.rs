@@ -14,7 +14,8 @@
 //! footprints expected to cover a point (1 tiles the surface exactly; more trades blur for
 //! noise, as `k` does in the regular estimate).
 //!
-//! Global photons sample every light in proportion to its power ([`Emitter::global_aimed`]
+//! Global photons sample every light in proportion to the power it sends towards the scene, a
+//! point light's only in the cone that holds the scene ([`scene_cone`]; [`Emitter::global_aimed`]
 //! sends a share of a point or spot light's towards the specular objects, weighted by the
 //! mixture's density). Caustic photons are aimed at
 //! the bounding spheres of the specular meshes (a projection map): each light-sphere pair gets a

@@ -19,7 +19,7 @@
 //!
 //! Two options make a sharper reference for a given time (see [`crate::reference::cache`]):
 //! - `caustic_paths`: paths aimed at the specular meshes' bounding spheres (the caustic photon
-//!   emitter), for which a light's isotropic emission would spend ~1% of its paths. Global paths
+//!   emitter), for which a light's isotropic emission would spend ~1-2% of its paths. Global paths
 //!   whose direction falls in those cones are then skipped, so every direction is counted once:
 //!   the two sets partition the lights' emission and their sum stays unbiased.
 //! - `direct: false`: vertices reached straight from a light are not splatted; the caller adds
