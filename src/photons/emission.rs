@@ -125,8 +125,8 @@ pub struct Emitter {
     /// For an aimed global emitter ([`Emitter::global_aimed`]): `sqrt(overlap / (pi N))`, from
     /// which each emission's spread follows its density; `None` for the others.
     mixture_spread: Option<f64>,
-    /// The share of an emitter over the lights' whole emission that these emissions stand
-    /// for ([`Emitter::share`]).
+    /// The share of the lights' whole emission that these emissions stand for
+    /// ([`Emitter::share`]).
     share: f64,
 }
 

@@ -170,12 +170,12 @@ pub fn max_emissions(class: PathClass, n: usize) -> u64 {
 /// [`max_emissions`] for a map of `class` drawn by an emitter standing for `share` of the
 /// lights' whole emission ([`Emitter::share`]: a point light's global photons go only where
 /// they can meet the scene): the cap times that share, so that it counts the emissions that
-/// can reach the scene, as many as when every direction was drawn; at least 4096 (or the
-/// whole cap, if smaller).
+/// can reach the scene, as many as when every direction was drawn; at least 4096, as
+/// `max_emissions` is.
 pub fn emission_cap(class: PathClass, n: usize, share: f64) -> u64 {
     let whole = max_emissions(class, n);
     let scaled = (whole as f64 * share.clamp(0.0, 1.0)).ceil() as u64;
-    scaled.clamp(4096.min(whole), whole)
+    scaled.clamp(4096, whole)
 }
 
 impl<'a> PhotonTracer<'a> {
