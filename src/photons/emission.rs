@@ -136,7 +136,24 @@ impl Emitter {
     /// ([`scene_cone::global_cones`]); `photons` is the number expected (it sizes the
     /// differentials).
     pub fn global(scene: &Scene, photons: usize, overlap: f64, seed: u64) -> Self {
-        let cones = scene_cone::global_cones(scene);
+        Self::global_in(
+            scene,
+            &scene_cone::global_cones(scene),
+            photons,
+            overlap,
+            seed,
+        )
+    }
+
+    /// [`Emitter::global`] with the lights' cones and powers `cones` already found
+    /// ([`scene_cone::global_cones`]: it reads every mesh's vertices for the scene's box).
+    fn global_in(
+        scene: &Scene,
+        cones: &[(Option<Cone>, f64)],
+        photons: usize,
+        overlap: f64,
+        seed: u64,
+    ) -> Self {
         let weights: Vec<f64> = cones.iter().map(|&(_, w)| w).collect();
         let total: f64 = weights.iter().sum();
         let whole: f64 = scene.lights.iter().map(light_power).sum();
@@ -189,7 +206,8 @@ impl Emitter {
     /// (a caustic's reflection off a wall, L S+ D D) otherwise rides only on the few global
     /// photons whose isotropic direction happens to meet the specular object.
     pub fn global_aimed(scene: &Scene, photons: usize, overlap: f64, seed: u64, aim: f64) -> Self {
-        let global = Self::global(scene, photons, overlap, seed);
+        let cones = scene_cone::global_cones(scene);
+        let global = Self::global_in(scene, &cones, photons, overlap, seed);
         let targets = specular_targets(scene);
         if !(aim > 0.0 && aim < 1.0) || targets.is_empty() {
             return global;
@@ -199,7 +217,6 @@ impl Emitter {
         // narrowed to the scene's cone (`global_cones`: the power `w` into it). So a light
         // draws as many aimed emissions, and as many that can reach the scene, as it did over
         // its whole sphere, and none that cannot. A light with nothing to aim at keeps `w`.
-        let cones = scene_cone::global_cones(scene);
         let whole: f64 = scene.lights.iter().map(light_power).sum();
         let mut sources: Vec<Source> = Vec::new();
         for s in global.sources {
