@@ -4,6 +4,8 @@
 //!
 //! Targets (issue 12): found at most 2x used; the render stage at 1.28M photons at most 3x its
 //! time at 20k (same settings, one pass); the build of 1.28M photons well under 0.5 s.
+//! Last, per estimator, the render stage's cost per photon used beyond the 20k map's, beside
+//! what the 3x target allows.
 //!
 //! Run: `cargo bench --bench photon_queries` (env PHOTONDIFF_QUERIES_MAX_PHOTONS caps the sweep;
 //! PHOTONDIFF_REPEATS, default 3, renders per estimator and count, every count's and
@@ -115,8 +117,8 @@ fn main() {
     }
     // What the render stage pays for each photon a gather uses beyond the 20k map's, and what
     // the 3x target (issue 12) allows: the extra time at most twice the 20k render, spread over
-    // the extra photons used. Found is within a few percent of used for the area estimators,
-    // so this is the cost of the estimate's own work, not of the search.
+    // the extra photons used. Found is within a few percent of used for `integrated` and
+    // coplanar, so for them this is the cost of the estimate's own work, not of the search.
     let last = counts.len() - 1;
     if last > 0 {
         println!();

@@ -2,8 +2,9 @@
 //! beside Embree alone on the very rays it traces (recorded once, then handed to raw
 //! `rtcIntersect1`, and to raw incoherent `rtcIntersect16` in groups of 16 consecutive rays),
 //! alternately in one run (median of several repetitions, one thread), and reported as
-//! ratios: photon rays per second over raw Embree rays per second. Tracing here is everything
-//! [`PhotonTracer::trace_photons_into`] does (emission, packets, hit completion, differentials,
+//! ratios: photon rays per second over raw Embree rays per second, and per ray: Embree's time
+//! alone, photondiff's own (the tracing's less Embree's) and what a ratio of 0.70 would leave
+//! it. Tracing here is everything [`PhotonTracer::trace_photons_into`] does (emission, packets, hit completion, differentials,
 //! scattering, storing) up to handing each batch's photons over; building the map from them
 //! (footprints, the footprint BVH) is timed with it in the last column.
 //!
@@ -151,9 +152,9 @@ fn main() {
         );
     }
     // The ratio is Embree's time per ray over Embree's plus photondiff's own, so it measures
-    // the scene as much as the tracer: photondiff's own time per ray is about the same on a
-    // small scene and a large one, Embree's is not. Both, per ray, and what the 70% target
-    // (issue 12) leaves photondiff on this scene: 3/7 of Embree's time.
+    // the scene as much as the tracer: photondiff's own time per ray changes a few-fold from
+    // scene to scene, Embree's thirtyfold. Both, per ray, and what the 70% target (issue 12)
+    // leaves photondiff on this scene: 3/7 of Embree's time.
     println!();
     for (k, &(name, ..)) in maps.iter().enumerate() {
         let ns = |t: &[f64], rays: usize| median(t.to_vec()) / rays.max(1) as f64 * 1e9;
