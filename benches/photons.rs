@@ -4,9 +4,10 @@
 //! alternately in one run (median of several repetitions, one thread), and reported as
 //! ratios: photon rays per second over raw Embree rays per second, and per ray: Embree's time
 //! alone, photondiff's own (the tracing's less Embree's) and what a ratio of 0.70 would leave
-//! it. Tracing here is everything [`PhotonTracer::trace_photons_into`] does (emission, packets, hit completion, differentials,
-//! scattering, storing) up to handing each batch's photons over; building the map from them
-//! (footprints, the footprint BVH) is timed with it in the last column.
+//! it. Tracing here is everything [`PhotonTracer::trace_photons_into`] does (emission,
+//! packets, hit completion, differentials, scattering, storing) up to handing each batch's
+//! photons over; building the map from them (footprints, the footprint BVH) is timed with it in
+//! the last column.
 //!
 //! Run: `cargo bench --bench photons`; `PHOTONDIFF_SCENE=scenes/cornell-glass.toml cargo bench
 //! --bench photons` times another scene's photons the same way (the canonical scene's global
