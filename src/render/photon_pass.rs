@@ -39,8 +39,7 @@ pub fn trace_photon_maps(
     let bar = crate::util::progress::bar(progress, total, "photons");
     // With final gathering the global photons go to the radiance map, whose precomputation is
     // a stage of its own ("radiance map"), so that its cost shows.
-    let global_emitter = global_emitter(scene, options);
-    let (caustic, global, counts) = stats.time("trace photons", || {
+    let (caustic, global, counts, global_share) = stats.time("trace photons", || {
         pool.install(|| {
             // Each map a span of its own in the trace (`--trace`): they differ in cost by
             // orders of magnitude from scene to scene.
@@ -59,6 +58,10 @@ pub fn trace_photon_maps(
             )?;
             drop(span);
             let _span = crate::util::trace::span("global map");
+            // Built here, in the stage and the span it serves: it finds the scene's box and
+            // the specular objects' spheres, reading every mesh's vertices.
+            let global_emitter = global_emitter(scene, options);
+            let share = global_emitter.share();
             let stop = StopRule::Stored(options.global_photons);
             if options.radiance_map {
                 // Only what the radiance map reads of each photon is kept.
@@ -90,11 +93,11 @@ pub fn trace_photon_maps(
                         Ok(())
                     },
                 )?;
-                Ok((caustic, Global::Radiance(samples, mirrors), [c, g]))
+                Ok((caustic, Global::Radiance(samples, mirrors), [c, g], share))
             } else {
                 let (global, g) =
                     tracer.build_map(&global_emitter, PathClass::Global, stop, &bar)?;
-                Ok::<_, String>((caustic, Global::Map(Box::new(global)), [c, g]))
+                Ok::<_, String>((caustic, Global::Map(Box::new(global)), [c, g], share))
             }
         })
     })?;
@@ -118,7 +121,7 @@ pub fn trace_photon_maps(
         }
     };
     bar.finish_and_clear();
-    record(&maps, &counts, options, global_emitter.share(), stats);
+    record(&maps, &counts, options, global_share, stats);
     Ok(maps)
 }
 
