@@ -727,3 +727,64 @@ fn faces_that_cross_themselves_are_warned_about() {
         .unwrap()
         .starts_with("1 polygon crosses itself"));
 }
+
+/// A large mesh's buffers are advised transparent huge pages as they are reserved, whichever
+/// way it comes (binary PLY, OBJ, a scene's sphere): Embree and hit completion read them at
+/// random, and in 4 kB pages each such read of a 10M-triangle mesh misses the TLB too.
+#[test]
+#[cfg(target_os = "linux")]
+fn large_meshes_are_read_into_buffers_advised_huge_pages() {
+    use photondiff::embree::{has_huge_page_advice, HUGE_PAGES_FROM_BYTES};
+    // A grid of n x n vertices: 4.9 MB of positions and 9.8 MB of triangles.
+    let n = 640u32;
+    let vertices = (n * n) as usize;
+    assert!(vertices * 12 >= HUGE_PAGES_FROM_BYTES);
+    let grid_triangles = || {
+        (0..n - 1).flat_map(move |y| {
+            (0..n - 1).flat_map(move |x| {
+                let a = y * n + x;
+                [[a, a + 1, a + n + 1], [a, a + n + 1, a + n]]
+            })
+        })
+    };
+    let triangles = 2 * (n as usize - 1).pow(2);
+    let mut ply = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {vertices}\nproperty float x\n\
+         property float y\nproperty float z\nelement face {triangles}\n\
+         property list uchar int vertex_indices\nend_header\n"
+    )
+    .into_bytes();
+    let mut obj = String::new();
+    for y in 0..n {
+        for x in 0..n {
+            for c in [x as f32, y as f32, 0.0] {
+                ply.extend_from_slice(&c.to_le_bytes());
+            }
+            obj += &format!("v {x} {y} 0\n");
+        }
+    }
+    for t in grid_triangles() {
+        ply.push(3);
+        for i in t {
+            ply.extend_from_slice(&(i as i32).to_le_bytes());
+        }
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    for (name, content) in [("grid.ply", ply), ("grid.obj", obj.into_bytes())] {
+        let mesh = load(name, &content).unwrap().mesh;
+        assert_eq!(
+            (mesh.positions.len(), mesh.triangles.len()),
+            (vertices, triangles),
+            "{name}"
+        );
+        assert_eq!(mesh.triangles[1], [0, n + 1, n], "{name}");
+        assert_eq!(has_huge_page_advice(&mesh.positions), Some(true), "{name}");
+        assert_eq!(has_huge_page_advice(&mesh.triangles), Some(true), "{name}");
+    }
+    let sphere = photondiff::scene::shapes::sphere(glam::DVec3::ZERO, 1.0, 1024);
+    assert_eq!(has_huge_page_advice(&sphere.positions), Some(true));
+    assert_eq!(has_huge_page_advice(&sphere.triangles), Some(true));
+    // A small mesh is left in ordinary pages.
+    let small = photondiff::scene::shapes::sphere(glam::DVec3::ZERO, 1.0, 64);
+    assert_eq!(has_huge_page_advice(&small.triangles), Some(false));
+}

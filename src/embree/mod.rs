@@ -29,6 +29,7 @@ mod device;
 mod ffi;
 mod hit;
 mod mesh;
+mod pages;
 mod query;
 mod ray;
 mod scene;
@@ -42,6 +43,7 @@ pub use bvh::{BvhQuality, BvhSettings, COMPACT_CHANGES_HITS, COMPACT_FROM_TRIANG
 pub use device::{Device, EmbreeError, EmbreeMemory};
 pub use hit::Hit;
 pub use mesh::{TriangleMesh, MAX_COORDINATE};
+pub use pages::{advise_huge_pages, has_huge_page_advice, HUGE_PAGES_FROM_BYTES};
 pub use query::RawRays;
 pub use ray::Ray;
 pub use scene::{Scene, SceneBuilder};

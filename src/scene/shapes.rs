@@ -1,6 +1,6 @@
 //! Analytic shapes tessellated into triangle meshes at load time.
 
-use crate::embree::TriangleMesh;
+use crate::embree::{advise_huge_pages, TriangleMesh};
 use glam::DVec3;
 
 /// Default number of segments around a sphere's equator. With 512 x 256 the glass sphere's
@@ -49,8 +49,15 @@ pub fn sphere_bytes(segments: u32) -> u64 {
 pub fn sphere(center: DVec3, radius: f64, segments: u32) -> TriangleMesh {
     let segments = segments.max(3);
     let rings = (segments / 2).max(2);
-    let mut positions = Vec::new();
-    let mut normals = Vec::new();
+    let vertices = 2 + (rings - 1) as usize * segments as usize;
+    // Reserved whole (one more position: Embree's padding) and advised huge pages before
+    // they are written: a sphere of thousands of segments is a large mesh.
+    let mut positions = Vec::with_capacity(vertices + 1);
+    let mut normals = Vec::with_capacity(vertices);
+    let mut triangles = Vec::with_capacity(sphere_triangles(segments) as usize);
+    advise_huge_pages(&mut positions);
+    advise_huge_pages(&mut normals);
+    advise_huge_pages(&mut triangles);
     let mut push = |n: DVec3| {
         positions.push(f32x3(center + n * radius));
         normals.push(f32x3(n));
@@ -70,7 +77,6 @@ pub fn sphere(center: DVec3, radius: f64, segments: u32) -> TriangleMesh {
     push(-DVec3::Y); // south pole
     let south = 1 + (rings - 1) * segments;
     let at = |ring: u32, s: u32| 1 + (ring - 1) * segments + (s % segments);
-    let mut triangles = Vec::new();
     for s in 0..segments {
         triangles.push([0, at(1, s), at(1, s + 1)]);
         for ring in 1..rings - 1 {

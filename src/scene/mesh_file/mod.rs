@@ -13,7 +13,8 @@ pub mod ply;
 pub mod repair;
 pub mod triangulate;
 
-use crate::embree::TriangleMesh;
+use crate::embree::{advise_huge_pages, TriangleMesh};
+use crate::util::reserve;
 use serde::Serialize;
 use std::path::Path;
 
@@ -201,4 +202,17 @@ pub fn load_mesh_reporting(path: &Path, read: &dyn Fn(u64)) -> Result<LoadedMesh
     // Embree shares the buffers instead of copying them when the positions are padded.
     mesh.reserve_padding();
     Ok(LoadedMesh { mesh, report })
+}
+
+/// [`reserve::make_room`] for a mesh buffer (positions, normals, triangles): where it takes a
+/// new allocation, that is advised huge pages before it is written further
+/// ([`advise_huge_pages`]: Embree and hit completion read these buffers at random).
+#[inline]
+fn make_room_in_mesh<T>(v: &mut Vec<T>, more: usize, what: &str) -> Result<(), String> {
+    let before = v.capacity();
+    reserve::make_room(v, more, what)?;
+    if v.capacity() != before {
+        advise_huge_pages(v);
+    }
+    Ok(())
 }

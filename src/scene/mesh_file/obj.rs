@@ -7,8 +7,8 @@
 
 use super::repair::bad_position;
 use super::triangulate::{triangulate, Scratch, Shape};
-use super::MeshReport;
-use crate::embree::TriangleMesh;
+use super::{make_room_in_mesh, MeshReport};
+use crate::embree::{advise_huge_pages, TriangleMesh};
 use crate::util::reserve;
 use std::collections::HashMap;
 use std::io::BufRead;
@@ -160,7 +160,7 @@ impl Builder {
                 if self.positions.len() >= SPLIT as usize - 1 {
                     return Err("too many vertices".into());
                 }
-                reserve::make_room(&mut self.positions, 1, "vertices read")?;
+                make_room_in_mesh(&mut self.positions, 1, "vertices read")?;
                 reserve::make_room(&mut self.first_normal, 1, "vertices read")?;
                 self.positions.push(p);
                 self.first_normal.push(UNUSED);
@@ -171,7 +171,7 @@ impl Builder {
                 if let Some(token) = tokens.next() {
                     return Err(format!("'vn' takes 3 numbers, then '{}'", text(token)));
                 }
-                reserve::make_room(&mut self.normals, 1, "normals read")?;
+                make_room_in_mesh(&mut self.normals, 1, "normals read")?;
                 self.normals.push(n);
             }
             b"f" | b"fo" => self.face(tokens)?,
@@ -205,7 +205,7 @@ impl Builder {
             self.report.short_faces += 1;
             return Ok(());
         }
-        reserve::make_room(&mut self.triangles, n - 2, "triangles read")?;
+        make_room_in_mesh(&mut self.triangles, n - 2, "triangles read")?;
         let (face, positions, triangles) = (&self.face, &self.positions, &mut self.triangles);
         let shape = triangulate(
             n,
@@ -261,6 +261,7 @@ impl Builder {
         } else {
             let raw = std::mem::take(&mut self.normals);
             let mut normals = Vec::with_capacity(base + self.split_vertices.len());
+            advise_huge_pages(&mut normals);
             // A vertex no face uses gets any valid normal: it is never shaded.
             normals.extend(self.first_normal.iter().map(|&k| match k {
                 UNUSED | NO_NORMAL => [0.0, 0.0, 1.0],

@@ -11,8 +11,8 @@ pub mod write;
 
 use super::repair::bad_position;
 use super::triangulate::{triangulate, Scratch, Shape};
-use super::MeshReport;
-use crate::embree::TriangleMesh;
+use super::{make_room_in_mesh, MeshReport};
+use crate::embree::{advise_huge_pages, TriangleMesh};
 use crate::util::reserve;
 use header::{Element, Format, Header};
 use std::path::Path;
@@ -196,16 +196,19 @@ impl Sink {
         let mut positions = Vec::new();
         // One more: the padding Embree reads past the last vertex.
         reserve::reserve_exact(&mut positions, vertices + 1, &what)?;
+        advise_huge_pages(&mut positions);
         let normals = match layout.normal {
             Some(_) => {
                 let mut normals = Vec::new();
                 reserve::reserve_exact(&mut normals, vertices, &what)?;
+                advise_huge_pages(&mut normals);
                 Some(normals)
             }
             None => None,
         };
         let mut reserved = Vec::new();
         reserve::reserve_exact(&mut reserved, triangles, &what)?;
+        advise_huge_pages(&mut reserved);
         Ok(Sink {
             positions,
             normals,
@@ -285,7 +288,7 @@ impl Sink {
     }
 
     fn add_polygon(&mut self, face: u64, corners: &[u32]) -> Result<(), String> {
-        reserve::make_room(&mut self.triangles, corners.len() - 2, "triangles read")?;
+        make_room_in_mesh(&mut self.triangles, corners.len() - 2, "triangles read")?;
         let (positions, triangles) = (&self.positions, &mut self.triangles);
         let shape = triangulate(
             corners.len(),
