@@ -7,6 +7,7 @@
 //!   `Send + Sync` [`Scene`];
 //! - [`Scene::intersect`] / [`Scene::occluded`] for single rays and [`Scene::intersect16`] /
 //!   [`Scene::occluded16`] for 16-wide packets, answering `Option<Hit>` / `bool`.
+//! - [`advise_huge_pages`]: the kernel's advice for the large mesh buffers Embree shares.
 //!
 //! Debian's Embree keeps its internal assertions, so a ray with a NaN or infinite component (or one
 //! beyond ~1.8e18, or a negative `tnear`) would abort the whole process. Every ray is therefore
