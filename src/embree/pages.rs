@@ -3,9 +3,10 @@
 //! A mesh's vertex and index buffers are read at random, by Embree's compact BVH (which reads
 //! the shared vertices) and by hit completion (a hit's indices, then its vertices). On a
 //! 10M-triangle mesh (184 MB) in 4 kB pages nearly every such read misses the TLB as well
-//! as the cache; backed by 2 MB pages, `production.toml`'s camera rays took about a tenth less
-//! time and its photons about a twentieth (`GLIBC_TUNABLES=glibc.malloc.hugetlb=1`, which
-//! does this for every allocation, alternated with the default; stop 67).
+//! as the cache. Backed by 2 MB pages, `production.toml`'s photons traced in 0.90-0.96 of the
+//! time and its render stage took 0.96 (the instanced scene's 0.90), for a BVH build 0.2 s
+//! longer on this project's virtual machine, where a huge page's first touch costs more
+//! (README, "Huge pages for large meshes"; stop 67).
 
 /// Buffers smaller than this are left alone: the TLB covers them anyway, and a huge page
 /// rounds a buffer's resident memory up to 2 MB.
