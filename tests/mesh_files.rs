@@ -390,6 +390,13 @@ fn broken_obj_files_name_the_line() {
             "v 0 0 0\nv 1e30 0 0\n",
             "line 2: vertex 2 is too large (beyond 1e18): [1e30, 0.0, 0.0]",
         ),
+        // Past single precision the file's value is infinite when read: said so, not only
+        // "not finite" beside an `inf` the file does not hold.
+        (
+            "v 0 0 0\nv 1e39 0 0\n",
+            "line 2: vertex 2 is not finite (infinite, or beyond single precision's 3.4e38): \
+             [inf, 0.0, 0.0]",
+        ),
         (
             "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
             "line 4: 'x' is not a vertex index",
@@ -397,6 +404,12 @@ fn broken_obj_files_name_the_line() {
         (
             "v 0 0 0\nsolid cube\n",
             "line 2: unknown OBJ statement 'solid'",
+        ),
+        // Binary data read as text: control characters escaped (NUL bytes in a message made
+        // a log binary to `grep`).
+        (
+            "v 1 2 3\n\u{1}\u{0}\u{7f} garbage\n",
+            "line 2: unknown OBJ statement '\\u{1}\\u{0}\\u{7f}'",
         ),
         ("# nothing\n", "the mesh has no triangles"),
     ];
@@ -447,6 +460,10 @@ fn broken_ascii_ply_files_name_the_element_and_line() {
          "cannot parse PLY: header line 7: a second element 'vertex'"),
         (h.replace("property float z\n", "property float z\nproperty double x\n"),
          "cannot parse PLY: header line 7: a second property 'x' in element 'vertex'"),
+        // Both spellings of the corners' list: which is the geometry would be a guess too.
+        (h.replace("end_header\n", "property list uchar int vertex_index\nend_header\n"),
+         "cannot parse PLY: the face element has both a 'vertex_indices' and a 'vertex_index' list: which holds the corners is ambiguous"),
+        (format!("{h}0 0 0\n1 \u{0}\u{1} 0\n0 1 0\n3 0 1 2\n"), "line 11: vertex 1: '\\u{0}\\u{1}' is not a number"),
     ];
     for (ply, message) in &cases {
         assert_eq!(
@@ -787,4 +804,21 @@ fn large_meshes_are_read_into_buffers_advised_huge_pages() {
     // A small mesh is left in ordinary pages.
     let small = photondiff::scene::shapes::sphere(glam::DVec3::ZERO, 1.0, 64);
     assert_eq!(has_huge_page_advice(&small.triangles), Some(false));
+}
+
+/// An ASCII PLY element without properties holds no values, however many it claims: skipped at
+/// once (10^12 of them, before or after the geometry, took about 80 minutes to read through).
+#[test]
+fn ascii_ply_elements_without_properties_are_skipped_whatever_their_count() {
+    let geometry = "element vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+                    element face 1\nproperty list uchar int vertex_indices\n";
+    let data = "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    let junk = "element junk 1000000000000\n";
+    for header in [
+        format!("ply\nformat ascii 1.0\n{junk}{geometry}end_header\n"),
+        format!("ply\nformat ascii 1.0\n{geometry}{junk}end_header\n"),
+    ] {
+        let m = ok("junk.ply", &format!("{header}{data}"));
+        assert_eq!(m.mesh.triangles, vec![[0, 1, 2]], "{header}");
+    }
 }

@@ -216,3 +216,19 @@ fn make_room_in_mesh<T>(v: &mut Vec<T>, more: usize, what: &str) -> Result<(), S
     }
     Ok(())
 }
+
+/// A token of a text mesh file as an error message shows it: its first 40 bytes, as text, with
+/// control characters escaped (binary data read as text held NUL bytes, which made a log
+/// binary to `grep`).
+fn shown(token: &[u8]) -> String {
+    String::from_utf8_lossy(&token[..token.len().min(40)])
+        .chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}

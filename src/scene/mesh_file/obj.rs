@@ -85,7 +85,7 @@ struct Builder {
 }
 
 fn text(token: &[u8]) -> String {
-    String::from_utf8_lossy(&token[..token.len().min(40)]).into_owned()
+    super::shown(token)
 }
 
 fn number(token: &[u8]) -> Result<f32, String> {

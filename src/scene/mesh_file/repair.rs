@@ -21,8 +21,13 @@ pub fn bad_position(p: &[f32; 3]) -> Option<String> {
         None
     } else if p.iter().all(|c| c.is_finite()) {
         Some(format!("is too large (beyond 1e18): {p:?}"))
-    } else {
+    } else if p.iter().any(|c| c.is_nan()) {
         Some(format!("is not finite: {p:?}"))
+    } else {
+        // Read in single precision: a coordinate past 3.4e38 in the file is infinite here.
+        Some(format!(
+            "is not finite (infinite, or beyond single precision's 3.4e38): {p:?}"
+        ))
     }
 }
 

@@ -91,10 +91,21 @@ impl Layout {
         };
         let face = element("face")?;
         let f = &header.elements[face];
-        let indices = f
-            .find("vertex_indices")
-            .or_else(|| f.find("vertex_index"))
-            .ok_or("cannot parse PLY: the face element has no 'vertex_indices' list")?;
+        let indices = match (f.find("vertex_indices"), f.find("vertex_index")) {
+            (Some(_), Some(_)) => {
+                return Err(
+                    "cannot parse PLY: the face element has both a 'vertex_indices' and a \
+                     'vertex_index' list: which holds the corners is ambiguous"
+                        .into(),
+                )
+            }
+            (Some(k), None) | (None, Some(k)) => k,
+            (None, None) => {
+                return Err(
+                    "cannot parse PLY: the face element has no 'vertex_indices' list".into(),
+                )
+            }
+        };
         let p = &f.properties[indices];
         if p.list.is_none() || !p.ty.is_integer() {
             return Err(format!(
