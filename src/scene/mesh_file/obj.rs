@@ -198,6 +198,7 @@ impl Builder {
                 _ => NO_NORMAL,
             };
             let out = self.vertex(v, n);
+            reserve::make_room(&mut self.face, 1, "corners of the face read")?;
             self.face.push((out, v));
         }
         let n = self.face.len();
@@ -206,6 +207,7 @@ impl Builder {
             return Ok(());
         }
         make_room_in_mesh(&mut self.triangles, n - 2, "triangles read")?;
+        self.scratch.make_room(n)?;
         let (face, positions, triangles) = (&self.face, &self.positions, &mut self.triangles);
         let shape = triangulate(
             n,

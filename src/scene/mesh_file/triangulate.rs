@@ -2,6 +2,7 @@
 //! plane when it is not (a fan would cover area outside a concave polygon). Triangles keep the
 //! polygon's winding.
 
+use crate::util::reserve;
 use glam::{DVec2, DVec3};
 
 /// Concave polygons with more vertices than this are refused: ear clipping is quadratic in
@@ -165,6 +166,20 @@ fn turn_angle(a: DVec2, b: DVec2) -> Option<f64> {
 pub struct Scratch {
     points: Vec<DVec2>,
     ring: Vec<usize>,
+}
+
+impl Scratch {
+    /// Makes room for a polygon of `n` corners, or says it does not fit in the memory the
+    /// process may still take: a face of ten million corners takes 160 MB of points in its
+    /// plane while it is triangulated (and aborted under a memory limit, unchecked).
+    pub fn make_room(&mut self, n: usize) -> Result<(), String> {
+        if self.points.capacity() >= n {
+            return Ok(());
+        }
+        self.points.clear();
+        let what = format!("a polygon of {n} corners: its points in its plane");
+        reserve::reserve_exact(&mut self.points, n, &what)
+    }
 }
 
 /// Ear clipping over `scratch.points` (counter-clockwise): clips a convex corner whose

@@ -3,6 +3,7 @@
 
 use super::header::{Header, Scalar};
 use super::{Layout, Sink};
+use crate::util::reserve;
 use std::io::BufRead;
 
 /// Values of the file, one at a time, with the line they are on.
@@ -115,6 +116,8 @@ pub(super) fn read(
                         .ok_or_else(|| at(l, format!("'{}' is not a vertex index", show(token))))?;
                     // The sink's messages name the element themselves.
                     let index = sink.index(i, index).map_err(|e| format!("line {l}: {e}"))?;
+                    reserve::make_room(&mut sink.corners, 1, "corners of the face read")
+                        .map_err(|e| at(l, e))?;
                     sink.corners.push(index);
                 }
             }

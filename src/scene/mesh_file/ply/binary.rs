@@ -4,6 +4,7 @@
 
 use super::header::{Element, Header, Scalar};
 use super::{Layout, Sink};
+use crate::util::reserve;
 use std::io::Read;
 
 const CHUNK: usize = 1 << 20;
@@ -266,7 +267,19 @@ fn faces<const BE: bool, R: Read>(
             if n < 0 {
                 return Err(Ok(format!("face {face} has {n} vertices")));
             }
-            let items = input.take((n as usize).saturating_mul(index_size))?;
+            let bytes = (n as usize).saturating_mul(index_size);
+            if bytes > CHUNK {
+                // A face of many corners is held as read and as numbers: checked before it is
+                // (ten million corners, 40 MB each way, aborted under a memory limit).
+                if bytes as u64 > input.left() {
+                    return Err(Err(Truncated));
+                }
+                let what = format!("face {face}'s {n} corners");
+                reserve::check(bytes as u64 + 4 * n as u64, &what).map_err(Ok)?;
+                sink.corners.clear();
+                reserve::reserve_exact(&mut sink.corners, n as usize, &what).map_err(Ok)?;
+            }
+            let items = input.take(bytes)?;
             sink.corners.clear();
             for item in items.chunks_exact(index_size) {
                 let index = int::<BE>(index_ty, item);

@@ -300,6 +300,7 @@ impl Sink {
 
     fn add_polygon(&mut self, face: u64, corners: &[u32]) -> Result<(), String> {
         make_room_in_mesh(&mut self.triangles, corners.len() - 2, "triangles read")?;
+        self.scratch.make_room(corners.len())?;
         let (positions, triangles) = (&self.positions, &mut self.triangles);
         let shape = triangulate(
             corners.len(),
