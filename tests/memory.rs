@@ -659,6 +659,55 @@ fn a_face_of_millions_of_corners_beyond_the_process_memory_is_refused() {
     }
 }
 
+/// A scene file of 100,000 instances (10 MB of text) under a 300 MB limit: the memory its
+/// parse takes is checked before it starts (it aborted, "memory allocation of 704 bytes
+/// failed"); with room for it the same scene is read.
+#[test]
+fn a_scene_file_beyond_the_process_memory_is_refused_before_it_is_parsed() {
+    let dir = tempfile::tempdir().unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    std::fs::write(dir.path().join("tri.ply"), ply).unwrap();
+    let mut text = String::from(
+        "[camera]\neye = [0, 5, 10]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov_y = 40\n\
+         width = 16\nheight = 12\n[materials.white]\ntype = \"diffuse\"\n\
+         albedo = [0.5, 0.5, 0.5]\n[[lights]]\ntype = \"point\"\nposition = [0, 4, 0]\n\
+         intensity = [10, 10, 10]\n[meshes.tri]\nfile = \"tri.ply\"\n",
+    );
+    for k in 0..100_000 {
+        text += &format!(
+            "[[instances]]\nmesh = \"tri\"\nmaterial = \"white\"\nscale = 0.01\n\
+             translate = [{}, 0, {}]\n",
+            k % 300,
+            k / 300
+        );
+    }
+    let scene = dir.path().join("many.toml");
+    std::fs::write(&scene, &text).unwrap();
+    let out = run_limited(300_000, &format!("info '{}'", scene.display()));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let need = text.len() as u64 * photondiff::scene::file::PARSE_BYTES_PER_BYTE;
+    assert!(
+        stderr.starts_with(&format!(
+            "photondiff: error: {}: its {} bytes of text (about 48 bytes each while parsed) \
+             need {:.2} GB, more than the ",
+            scene.display(),
+            text.len(),
+            need as f64 / 1e9
+        )),
+        "{stderr}"
+    );
+    let out = run_limited(2_000_000, &format!("info '{}'", scene.display()));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("100000"),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// Caustic photons that cannot fit even at the least a stored one takes while its map is traced
 /// (104 bytes) are refused before tracing, by `render` and `photons`: 2 * 10^7 under a 1.5 GB
 /// limit traced for 15 s and aborted. A scene without caustics stores none, and is not refused.
