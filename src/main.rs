@@ -108,7 +108,18 @@ fn main() -> ExitCode {
         Ok(()) if photondiff::util::interrupt::honoured() => {
             ExitCode::from(photondiff::util::interrupt::exit_status())
         }
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => {
+            // The signal's own line promised to drop the work under way: it came after the
+            // last of it had begun (the last pass's last tiles) or during the writing, and cut
+            // nothing. Said, or the run's output contradicts itself (a hostile user's sweep).
+            if photondiff::util::interrupt::requested() {
+                photondiff::stderr_line!(
+                    "photondiff: interrupted too late to cut anything: the work asked for was \
+                     done and written"
+                );
+            }
+            ExitCode::SUCCESS
+        }
         Err(message) => {
             photondiff::stderr_line!("photondiff: error: {message}");
             if let Some(trace) = cli::write_trace_of_failure(&message) {

@@ -478,3 +478,55 @@ fn ctrl_c_ends_a_references_light_tracing_with_the_paths_traced() {
     }
     panic!("the signal never came during the light tracing");
 }
+
+/// A Ctrl-C after the last pass has ended (here as the images are written) cuts nothing: the
+/// run writes the image asked for and exits 0, and says the signal came too late, since the
+/// signal's own line had promised to drop the pass under way (a hostile user's sweep read the
+/// two lines and a status of 0 as a swallowed Ctrl-C).
+#[test]
+fn a_ctrl_c_after_the_last_pass_cuts_nothing_and_says_so() {
+    use std::io::BufRead;
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("scene.toml");
+    std::fs::write(&file, SCENE).unwrap();
+    // Direct light alone at 2400 x 1800: the passes take about a second each, the writing of
+    // the EXR and PNG a few tenths, while the signal is sent.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_photondiff"))
+        .args(["render", "--estimator", "direct", "--passes", "2"])
+        .args(["--resolution", "2400x1800", "-o"])
+        .arg(dir.path().join("img.exr"))
+        .arg(&file)
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = std::io::BufReader::new(child.stderr.take().unwrap()).lines();
+    let mut stderr = String::new();
+    for line in lines.by_ref() {
+        let line = line.unwrap();
+        stderr += &line;
+        stderr.push('\n');
+        if line.starts_with("passes: 2 of 2 done") {
+            interrupt(&child, "INT");
+            break;
+        }
+    }
+    for line in lines {
+        stderr += &line.unwrap();
+        stderr.push('\n');
+    }
+    let status = wait(&mut child);
+    assert_eq!(status.code(), Some(0), "{stderr}");
+    assert!(
+        stderr.contains(
+            "photondiff: interrupted: dropping the pass under way, then writing the mean of the \
+             passes done (Ctrl-C again to exit at once)\n"
+        ) && stderr.ends_with(
+            "photondiff: interrupted too late to cut anything: the work asked for was done and \
+             written\n"
+        ),
+        "{stderr}"
+    );
+    let film = Film::read_exr(&dir.path().join("img.exr")).unwrap();
+    assert_eq!((film.width, film.height), (2400, 1800));
+}
