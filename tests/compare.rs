@@ -353,6 +353,14 @@ fn mismatches_are_one_line_errors() {
             p(&nan)
         )
     );
+    // As a mask: NaN is above nothing, and its pixel was left out of the region silently.
+    assert_eq!(
+        stderr(&run(&[&i, &r, Path::new("--mask"), &nan])),
+        format!(
+            "photondiff: error: {}: channel Y of pixel (0, 1) is not finite (NaN)\n",
+            p(&nan)
+        )
+    );
     let missing = d.path().join("missing.exr");
     assert_eq!(
         stderr(&run(&[&i, &missing])),

@@ -68,8 +68,11 @@ pub fn check_same_shape(
 }
 
 /// Reads a mask for images of `width` x `height`: a pixel counts when any channel is above 0.
+/// A value that is not finite is refused, as in the images: NaN is above nothing, and its pixel
+/// was left out of the region without a word.
 pub fn read_mask(path: &Path, width: usize, height: usize) -> Result<Vec<bool>, String> {
     let mask = ChannelImage::read(path)?;
+    mask.check_finite(path)?;
     if (mask.width, mask.height) != (width, height) {
         return Err(format!(
             "mask {} is {} x {} pixels but the images are {width} x {height}",
