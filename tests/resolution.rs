@@ -230,3 +230,47 @@ fn tiles_at_a_resolution_merge_into_the_whole_image_at_it() {
         "{stderr}"
     );
 }
+
+/// The scene's warnings are of the image rendered: under `--resolution` the pixels the shapes
+/// cover are counted of its size (it gave the scene file's own, `of 768 pixels` for a
+/// 16 x 12 image), by `render` and by `reference` alike.
+#[test]
+fn the_scenes_warnings_count_the_pixels_of_the_resolution_given() {
+    let dir = tempfile::tempdir().unwrap();
+    // Seen through 179.9 degrees, the small scene is a speck in the middle of the image.
+    let wide = SMALL_SCENE.replace("fov_y = 40.0", "fov_y = 179.9");
+    assert_ne!(wide, SMALL_SCENE);
+    let scene = write_scene(dir.path(), "wide.toml", &wide);
+    let out_exr = dir.path().join("w.exr");
+    let reference = dir.path().join("r.exr");
+    for args in [
+        vec!["render", "--estimator", "direct", "--passes", "1", "-o"],
+        vec![
+            "reference",
+            "--light-paths",
+            "1000",
+            "--caustic-paths",
+            "1000",
+            "-o",
+        ],
+    ] {
+        let output = if args[0] == "render" {
+            &out_exr
+        } else {
+            &reference
+        };
+        let out = Command::new(EXE)
+            .args(&args)
+            .arg(output)
+            .args(["--resolution", "16x12", "--quiet"])
+            .arg(&scene)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{stderr}");
+        assert!(
+            stderr.contains(" of 192 pixels; fov_y = 179.9): the image will be almost black"),
+            "{args:?}: {stderr}"
+        );
+    }
+}

@@ -74,12 +74,14 @@ pub fn stdout_failure() -> Option<&'static String> {
 
 /// Loads the scene at `path` (its mesh files' reading a bar, `load`, when `progress`: a large
 /// mesh takes seconds to read), refuses `outputs` that name one of its mesh files (known only
-/// once the scene is read: a scene may be a pipe, read once) and prints its warnings. From
+/// once the scene is read: a scene may be a pipe, read once), gives its camera `resolution`
+/// (`--resolution`, where given) and prints its warnings. From
 /// then on a failed run writes its trace ([`write_trace_of_failure`]).
 pub fn load_scene(
     path: &Path,
     progress: bool,
     outputs: &[(&str, &Path)],
+    resolution: Option<resolution::Resolution>,
 ) -> Result<(Scene, u64), String> {
     let bar = photondiff::util::progress::bar(progress, 1, "load");
     let loaded = photondiff::scene::file::load_scene_hashed(path, |done, total| {
@@ -89,7 +91,10 @@ pub fn load_scene(
         bar.set_position(done);
     });
     bar.finish_and_clear();
-    let (scene, hash) = loaded.map_err(|e| e.to_string())?;
+    let (mut scene, hash) = loaded.map_err(|e| e.to_string())?;
+    // Before the warnings: one counts the image's pixels (it gave the scene file's 640 x 480
+    // under `--resolution 160x120`).
+    resolution::apply(&mut scene, resolution);
     let meshes: Vec<PathBuf> = scene.mesh_files.iter().map(|m| resolved(m)).collect();
     for (flag, output) in outputs {
         let here = resolved(output);

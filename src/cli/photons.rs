@@ -83,7 +83,7 @@ pub fn run(args: &PhotonsArgs) -> Result<(), String> {
     super::start_trace(args.trace.as_deref())?;
     let mut stats = Stats::of_this_build();
     let (scene, hash) = stats.time("load scene", || {
-        super::load_scene(&args.scene, !args.quiet, &outputs)
+        super::load_scene(&args.scene, !args.quiet, &outputs, None)
     })?;
     let mark = photondiff::util::memory::ResidentMark::now();
     let (device, embree, bvh) = stats.time("build BVH", || {

@@ -394,10 +394,9 @@ pub fn run(args: &ReferenceArgs) -> Result<(), String> {
         true => None,
         false => Some(stats.time("read references", || read_parts(&args.merge))?),
     };
-    let (mut scene, hash) = stats.time("load scene", || {
-        super::load_scene(&args.scene, !args.quiet, &outputs)
+    let (scene, hash) = stats.time("load scene", || {
+        super::load_scene(&args.scene, !args.quiet, &outputs, args.resolution)
     })?;
-    super::resolution::apply(&mut scene, args.resolution);
     let (width, height) = (scene.camera.width, scene.camera.height);
     if let Some(parts) = &parts {
         parts.check_size(width, height)?;

@@ -291,10 +291,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let mut range_sum = None;
     super::start_trace(args.trace.as_deref())?;
     let mut stats = Stats::of_this_build();
-    let (mut scene, hash) = stats.time("load scene", || {
-        super::load_scene(&args.scene, !args.quiet, &outputs)
+    let (scene, hash) = stats.time("load scene", || {
+        super::load_scene(&args.scene, !args.quiet, &outputs, args.resolution)
     })?;
-    super::resolution::apply(&mut scene, args.resolution);
     let (width, height) = (scene.camera.width, scene.camera.height);
     let window = match &tile {
         Some(tile) => Some(tile.window(width, height)?),
