@@ -704,27 +704,36 @@ fn build(file: SceneFile, base: &Path, progress: &dyn Fn(u64, u64)) -> Result<Sc
     })
 }
 
-/// Refuses, before tessellating, spheres whose mesh buffers alone would not fit in `total`
-/// bytes of memory: four spheres of 8,192 segments asked for 6.4 GB, and where that could not
-/// be had the process aborted ("memory allocation failed") rather than saying why.
+/// The least a triangle's share of its BVH takes: Embree's compact BVH, 566 MB for the
+/// production ball's 10.2M triangles (55 bytes a triangle; the ordinary one 65).
+const LEAST_BVH_BYTES_PER_TRIANGLE: u64 = 50;
+
+/// Refuses, before tessellating, spheres whose mesh buffers and the least BVH over them would
+/// not fit in `total` bytes of memory: four spheres of 8,192 segments asked for 6.4 GB of
+/// buffers, and where that could not be had the process aborted ("memory allocation failed")
+/// rather than saying why; ten of them fitted their 15.4 GB of buffers in 25 GB and were
+/// refused by Embree 86 s later, for want of the 34 GB their BVH needs.
 fn check_sphere_memory(shapes: &[ShapeDesc], total: Option<u64>) -> Result<(), String> {
     let Some(total) = total else { return Ok(()) };
-    let (mut bytes, mut largest) = (0u64, 0u32);
+    let (mut bytes, mut triangles, mut largest) = (0u64, 0u64, 0u32);
     for shape in shapes {
         if let ShapeDesc::Sphere(SphereShape { segments, .. }) = shape {
             let s = segments
                 .unwrap_or(shapes::DEFAULT_SPHERE_SEGMENTS)
                 .clamp(3, 8192);
             bytes += shapes::sphere_bytes(s);
+            triangles += shapes::sphere_triangles(s);
             largest = largest.max(s);
         }
     }
-    if bytes > total {
+    let bvh = triangles * LEAST_BVH_BYTES_PER_TRIANGLE;
+    if bytes + bvh > total {
         return Err(format!(
-            "the spheres' triangles need {:.1} GB of mesh buffers (segments up to {largest}: \
-             {} triangles a sphere), more than the {:.1} GB this process may use: use fewer \
-             segments",
+            "the spheres' {triangles} triangles need {:.1} GB of mesh buffers and {:.1} GB or \
+             more of BVH (segments up to {largest}: {} triangles a sphere), more than the {:.1} \
+             GB this process may use: use fewer segments",
             bytes as f64 / 1e9,
+            bvh as f64 / 1e9,
             shapes::sphere_triangles(largest),
             total as f64 / 1e9
         ));
@@ -772,13 +781,16 @@ mod tests {
                 segments,
             })
         };
-        // Four spheres of 8,192 segments: 6.4 GB of buffers.
+        // Four spheres of 8,192 segments: 6.4 GB of buffers, 13.4 GB of BVH at the least.
         let four: Vec<ShapeDesc> = (0..4).map(|_| ball(Some(8192))).collect();
         assert_eq!(
             check_sphere_memory(&four, Some(4_000_000_000)).unwrap_err(),
-            "the spheres' triangles need 6.4 GB of mesh buffers (segments up to 8192: 67092480 \
-             triangles a sphere), more than the 4.0 GB this process may use: use fewer segments"
+            "the spheres' 268369920 triangles need 6.4 GB of mesh buffers and 13.4 GB or more \
+             of BVH (segments up to 8192: 67092480 triangles a sphere), more than the 4.0 GB \
+             this process may use: use fewer segments"
         );
+        // The buffers alone would fit in 8 GB: the BVH would not.
+        assert!(check_sphere_memory(&four, Some(8_000_000_000)).is_err());
         assert!(check_sphere_memory(&four, Some(24_000_000_000)).is_ok());
         assert!(check_sphere_memory(&four, None).is_ok());
         assert!(check_sphere_memory(&[ball(None)], Some(100_000_000)).is_ok());
