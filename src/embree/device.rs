@@ -128,7 +128,13 @@ fn creation_failure(code: u32, limit: Option<u64>) -> String {
                     crate::util::memory::gigabytes(t)
                 )
             });
-            format!("rtcNewDevice ran out of memory{within}")
+            // What to do about it, too: a user read "Embree error 4: rtcNewDevice ran out of
+            // memory within the 0.31 GB ..." as naming nothing (the scene's 75 MB were held).
+            format!(
+                "rtcNewDevice ran out of memory{within} (Embree's device reserves memory for \
+                 its threads before any BVH is built, with the scene's meshes held): give the \
+                 process more memory"
+            )
         }
         5 => "rtcNewDevice failed: this CPU is not supported by this Embree build".into(),
         _ => "rtcNewDevice failed".into(),
@@ -240,11 +246,18 @@ mod tests {
     /// scene under `ulimit -v 150000` gets); an unsupported CPU as such.
     #[test]
     fn a_device_that_runs_out_of_memory_says_so_not_that_the_cpu_is_unsupported() {
+        let advice = " (Embree's device reserves memory for its threads before any BVH is \
+                      built, with the scene's meshes held): give the process more memory";
         assert_eq!(
             creation_failure(4, Some(150_000 * 1024)),
-            "rtcNewDevice ran out of memory within the 0.15 GB this process may use"
+            format!(
+                "rtcNewDevice ran out of memory within the 0.15 GB this process may use{advice}"
+            )
         );
-        assert_eq!(creation_failure(4, None), "rtcNewDevice ran out of memory");
+        assert_eq!(
+            creation_failure(4, None),
+            format!("rtcNewDevice ran out of memory{advice}")
+        );
         assert_eq!(
             creation_failure(5, Some(1 << 30)),
             "rtcNewDevice failed: this CPU is not supported by this Embree build"
