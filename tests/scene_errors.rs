@@ -1563,11 +1563,11 @@ fn seeds_and_thread_counts_say_what_they_take() {
     let exe = env!("CARGO_BIN_EXE_photondiff");
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/caustic-sphere.toml");
     for command in ["render", "photons", "reference"] {
-        for (flag, name, value) in [
-            ("--seed", "S", "-1"),
-            ("--threads", "N", "-1"),
-            ("--seed", "S", "1.5"),
-            ("--seed", "S", "18446744073709551616"),
+        for (flag, name, value, range) in [
+            ("--seed", "S", "-1", "0 to 2^64 - 1"),
+            ("--threads", "N", "-1", "0 to 1024 (0 = one per core)"),
+            ("--seed", "S", "1.5", "0 to 2^64 - 1"),
+            ("--seed", "S", "18446744073709551616", "0 to 2^64 - 1"),
         ] {
             let run = Command::new(exe)
                 .args([command, scene, flag, value])
@@ -1582,7 +1582,7 @@ fn seeds_and_thread_counts_say_what_they_take() {
             assert!(
                 stderr.starts_with(&format!(
                     "error: invalid value '{value}' for '{flag} <{name}>': expected a whole \
-                     number from 0 to 2^64 - 1, got {value}\n"
+                     number from {range}, got {value}\n"
                 )),
                 "{command} {flag} {value}: {stderr}"
             );

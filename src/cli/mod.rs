@@ -138,12 +138,20 @@ pub fn check_threads(threads: usize) -> Result<usize, String> {
 /// The most photons one map takes: photon indices are 32-bit.
 pub const MAX_PHOTONS: usize = 1 << 31;
 
-/// A whole number of 0 or more, for `--seed` and `--threads` (clap said "invalid digit found
+/// A whole number of 0 or more, for `--seed` (clap said "invalid digit found
 /// in string" of `-1`).
 pub fn whole<T: std::str::FromStr>(text: &str) -> Result<T, String> {
     text.trim()
         .parse()
         .map_err(|_| format!("expected a whole number from 0 to 2^64 - 1, got {text}"))
+}
+
+/// A whole number of threads for `--threads`, at most [`MAX_THREADS`] (0 = one per core): its
+/// refusal of `-1` gave [`whole`]'s range, 0 to 2^64 - 1, not the option's.
+pub fn thread_count(text: &str) -> Result<usize, String> {
+    text.trim().parse().map_err(|_| {
+        format!("expected a whole number from 0 to {MAX_THREADS} (0 = one per core), got {text}")
+    })
 }
 
 /// Parses a photon count (`--photons`, `--caustic-photons`): a whole number up to

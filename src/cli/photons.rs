@@ -31,7 +31,7 @@ pub struct PhotonsArgs {
     seed: u64,
     /// Worker threads and Embree's BVH build threads (0 = one per core; at most 1024); the
     /// maps are identical for any count.
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::whole::<usize>)]
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::thread_count)]
     threads: usize,
     #[command(flatten)]
     bvh: super::bvh::BvhArgs,

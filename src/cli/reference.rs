@@ -47,7 +47,7 @@ pub struct ReferenceArgs {
           value_parser = clap::value_parser!(u32).range(1..=64))]
     direct_grids: Vec<u32>,
     /// Worker threads and Embree's BVH build threads (0 = one per core; at most 1024).
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::whole::<usize>)]
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::thread_count)]
     threads: usize,
     /// Seed of the light paths. References of one scene made with the same settings and
     /// different seeds are independent, and `--merge` averages them into one with their paths

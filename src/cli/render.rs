@@ -69,7 +69,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=64))]
     edge_grid: Option<u32>,
     /// Worker threads and Embree's BVH build threads (0 = one per core; at most 1024).
-    #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::whole::<usize>)]
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = super::thread_count)]
     threads: usize,
     /// Seed of every random stream; the same seed gives a bit-identical image on any thread count.
     #[arg(long, value_name = "S", default_value_t = 0, value_parser = super::whole::<u64>)]
