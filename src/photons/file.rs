@@ -409,10 +409,17 @@ fn check_settings(header: &Header, options: &PhotonOptions) -> Result<(), String
             ));
         }
         if theirs != value {
+            // The seed has no estimator's default: the bracket below sent a user looking for one.
+            let why = match key.as_str() {
+                "--seed" => "the render must give the --seed the maps were traced with",
+                _ => {
+                    "given, or the default of the --estimator: `photons` takes the render's \
+                     --estimator and photon options"
+                }
+            };
             return Err(format!(
                 "photon maps traced with other settings: {key} is {theirs} in the file, {value} in \
-                 this render (given, or the default of the --estimator: `photons` takes the \
-                 render's --estimator and photon options)"
+                 this render ({why})"
             ));
         }
     }
@@ -517,8 +524,7 @@ mod tests {
         assert_eq!(
             decode(&bytes, 0xabc, &other).err().unwrap(),
             "photon maps traced with other settings: --seed is 0 in the file, 3 in this render \
-             (given, or the default of the --estimator: `photons` takes the render's --estimator \
-             and photon options)"
+             (the render must give the --seed the maps were traced with)"
         );
         let older = PhotonOptions {
             max_bounces: 64,
