@@ -598,9 +598,9 @@ fn a_mesh_beyond_the_process_memory_is_refused_with_what_it_needs() {
 }
 
 /// One face of ten million corners (a thousand vertices on a circle, gone round ten thousand
-/// times) under a 200 MB limit: the memory to read it and to triangulate it (its indices as
-/// read, as numbers, as points in its plane: about 240 MB) is checked before it is taken,
-/// in a binary PLY and in an OBJ. Unchecked, both aborted ("memory allocation of 14336 bytes
+/// times) under a 150 or 200 MB limit: the memory to read it and to triangulate it (its indices as
+/// read, as numbers, as points in its plane, its triangles: about 360 MB) is checked before
+/// it is taken, in a binary PLY and in an OBJ. Unchecked, both aborted ("memory allocation of 14336 bytes
 /// failed").
 #[test]
 fn a_face_of_millions_of_corners_beyond_the_process_memory_is_refused() {
@@ -638,24 +638,22 @@ fn a_face_of_millions_of_corners_beyond_the_process_memory_is_refused() {
     }
     text.push('\n');
     std::fs::write(&obj, text).unwrap();
-    for path in [&ply, &obj] {
-        let out = run_limited(200_000, &format!("info '{}'", path.display()));
+    // The limits under which each aborted before its checks.
+    for (path, kib, limit) in [(&ply, 150_000, "0.15 GB"), (&obj, 200_000, "0.20 GB")] {
+        let out = run_limited(kib, &format!("info '{}'", path.display()));
         let stderr = String::from_utf8_lossy(&out.stderr);
         assert_eq!(out.status.code(), Some(1), "{stderr}");
         let message = stderr
             .strip_prefix(&format!("photondiff: error: {}: ", path.display()))
             .unwrap_or_else(|| panic!("{stderr}"));
-        if path == &ply {
-            assert!(
-                message.starts_with("face 0's 10000000 corners need 0.08 GB, more than the "),
-                "{stderr}"
-            );
-        } else {
-            assert!(
-                message.starts_with("line 1001: ") && message.contains(" GB left of the 0.20 GB"),
-                "{stderr}"
-            );
-        }
+        // Which check refuses depends on what the process has mapped by then (the face's 0.08
+        // GB of corners fitted on one machine, and its 0.12 GB of triangles then did not): any
+        // of them, saying what is left of the limit, never an abort.
+        let at = if path == &ply { "" } else { "line 1001: " };
+        assert!(
+            message.starts_with(at) && message.contains(&format!(" GB left of the {limit}")),
+            "{stderr}"
+        );
     }
 }
 
