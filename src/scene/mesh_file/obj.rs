@@ -7,7 +7,7 @@
 
 use super::repair::bad_position;
 use super::triangulate::{triangulate, Scratch, Shape};
-use super::{make_room_in_mesh, MeshReport};
+use super::{make_room_in_mesh, shown, MeshReport};
 use crate::embree::{advise_huge_pages, TriangleMesh};
 use crate::util::reserve;
 use std::collections::HashMap;
@@ -84,15 +84,11 @@ struct Builder {
     report: MeshReport,
 }
 
-fn text(token: &[u8]) -> String {
-    super::shown(token)
-}
-
 fn number(token: &[u8]) -> Result<f32, String> {
     std::str::from_utf8(token)
         .ok()
         .and_then(|s| s.parse::<f32>().ok())
-        .ok_or_else(|| format!("'{}' is not a number", text(token)))
+        .ok_or_else(|| format!("'{}' is not a number", shown(token)))
 }
 
 fn three_numbers<'a>(
@@ -115,7 +111,7 @@ fn resolve(token: &[u8], count: usize, what: &str, plural: &str) -> Result<u32, 
     let index: i64 = std::str::from_utf8(token)
         .ok()
         .and_then(|s| s.parse().ok())
-        .ok_or_else(|| format!("'{}' is not a {what} index", text(token)))?;
+        .ok_or_else(|| format!("'{}' is not a {what} index", shown(token)))?;
     let resolved = match index {
         i if i > 0 => i - 1,
         i if i < 0 => count as i64 + i,
@@ -169,7 +165,7 @@ impl Builder {
             b"vn" => {
                 let n = three_numbers("vn", "x y z", &mut tokens)?;
                 if let Some(token) = tokens.next() {
-                    return Err(format!("'vn' takes 3 numbers, then '{}'", text(token)));
+                    return Err(format!("'vn' takes 3 numbers, then '{}'", shown(token)));
                 }
                 make_room_in_mesh(&mut self.normals, 1, "normals read")?;
                 self.normals.push(n);
@@ -177,7 +173,7 @@ impl Builder {
             b"f" | b"fo" => self.face(tokens)?,
             b"l" | b"p" => self.report.skipped_lines_points += 1,
             _ if IGNORED.contains(&keyword) => {}
-            _ => return Err(format!("unknown OBJ statement '{}'", text(keyword))),
+            _ => return Err(format!("unknown OBJ statement '{}'", shown(keyword))),
         }
         Ok(())
     }

@@ -1,6 +1,7 @@
 //! ASCII PLY data: whitespace-separated values read line by line, each element beginning a
 //! line (its values may wrap onto the next). Errors name the element and the line.
 
+use super::super::shown;
 use super::header::{Header, Scalar};
 use super::{Layout, Sink};
 use crate::util::reserve;
@@ -41,10 +42,6 @@ impl<R: BufRead> Tokens<R> {
             self.number += 1;
         }
     }
-}
-
-fn show(token: &[u8]) -> String {
-    super::super::shown(token)
 }
 
 /// Reads the data of every element in `header` into `sink`. `reader` is just past the header.
@@ -89,7 +86,7 @@ pub(super) fn read(
                     }
                     line = l;
                     let value = number(token)
-                        .ok_or_else(|| at(l, format!("'{}' is not a number", show(token))))?;
+                        .ok_or_else(|| at(l, format!("'{}' is not a number", shown(token))))?;
                     values.push(value);
                     continue;
                 };
@@ -101,7 +98,7 @@ pub(super) fn read(
                 // A negative length was read as an empty list.
                 let n = integer(token, count)
                     .filter(|n| *n >= 0)
-                    .ok_or_else(|| at(l, format!("'{}' is not a list length", show(token))))?;
+                    .ok_or_else(|| at(l, format!("'{}' is not a list length", shown(token))))?;
                 values.push(0.0);
                 let indices = e == layout.face && k == layout.indices;
                 for _ in 0..n {
@@ -109,11 +106,12 @@ pub(super) fn read(
                     line = l;
                     if !indices {
                         number(token)
-                            .ok_or_else(|| at(l, format!("'{}' is not a number", show(token))))?;
+                            .ok_or_else(|| at(l, format!("'{}' is not a number", shown(token))))?;
                         continue;
                     }
-                    let index = integer(token, p.ty)
-                        .ok_or_else(|| at(l, format!("'{}' is not a vertex index", show(token))))?;
+                    let index = integer(token, p.ty).ok_or_else(|| {
+                        at(l, format!("'{}' is not a vertex index", shown(token)))
+                    })?;
                     // The sink's messages name the element themselves.
                     let index = sink.index(i, index).map_err(|e| format!("line {l}: {e}"))?;
                     reserve::make_room(&mut sink.corners, 1, "corners of the face read")
@@ -135,7 +133,7 @@ pub(super) fn read(
     if let Some((token, line)) = tokens.next()? {
         return Err(format!(
             "line {line}: '{}' after the last element: the header's counts do not match the data",
-            show(token)
+            shown(token)
         ));
     }
     Ok(())
