@@ -801,9 +801,10 @@ fn large_meshes_are_read_into_buffers_advised_huge_pages() {
     let sphere = photondiff::scene::shapes::sphere(glam::DVec3::ZERO, 1.0, 1024);
     assert_eq!(has_huge_page_advice(&sphere.positions), Some(true));
     assert_eq!(has_huge_page_advice(&sphere.triangles), Some(true));
-    // A small mesh is left in ordinary pages.
-    let small = photondiff::scene::shapes::sphere(glam::DVec3::ZERO, 1.0, 64);
-    assert_eq!(has_huge_page_advice(&small.triangles), Some(false));
+    // That a small buffer is not advised is checked in `embree::pages`'s own test, not here
+    // through a small mesh: the allocator hands memory freed by the large meshes above (or by
+    // any other test's) to later small buffers, and the advice stays on that memory's mapping
+    // (CI saw a 64-segment sphere's triangles in an advised mapping).
 }
 
 /// An ASCII PLY element without properties holds no values, however many it claims: skipped at
