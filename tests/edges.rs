@@ -421,6 +421,46 @@ fn bad_edge_grids_are_clear_errors() {
     }
 }
 
+/// An `--edge-grid` given no finer than `--view-grid` is off, as its help says, and the render
+/// says so (it was off without a word); the documented off value, 1, and a finer grid are not
+/// warned about.
+#[test]
+fn an_edge_grid_no_finer_than_the_view_grid_is_warned_about() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("scene.toml");
+    std::fs::write(&scene, BALL_IN_A_SPHERE).unwrap();
+    let warnings = |grids: &[&str]| {
+        let out = common::run_ok(
+            [
+                "render",
+                scene.to_str().unwrap(),
+                "--quiet",
+                "--photons",
+                "2000",
+                "-o",
+                dir.path().join("image.exr").to_str().unwrap(),
+            ]
+            .iter()
+            .chain(grids),
+        );
+        String::from_utf8_lossy(&out.stderr)
+            .lines()
+            .filter(|l| l.contains("warning"))
+            .map(str::to_string)
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        warnings(&["--edge-grid", "4", "--view-grid", "4"]),
+        [
+            "photondiff: warning: --edge-grid 4 is no finer than --view-grid 4: edge pixels are \
+          rendered on the view grid (an edge grid above the view grid refines them)"
+        ]
+    );
+    assert_eq!(warnings(&["--edge-grid", "2", "--view-grid", "3"]).len(), 1);
+    assert!(warnings(&["--edge-grid", "1"]).is_empty());
+    assert!(warnings(&["--edge-grid", "4", "--view-grid", "2"]).is_empty());
+}
+
 /// Corner rays [`EdgeMask::find`] traces over a `w x h` image: bands of `TILE_SIZE` rows, each with its
 /// own rows of corners.
 fn band_corners(w: u32, h: u32) -> u64 {

@@ -271,6 +271,14 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let tile = checks::tile(args, kind)?;
     let run = reads::Run::of(args, kind, stop.passes);
     checks::options(args, &run, pass_range.as_ref())?;
+    if let Some(n) = args.edge_grid.filter(|&n| n > 1 && n <= args.view_grid) {
+        // Off as documented, but a user who asked for it should hear so.
+        photondiff::stderr_line!(
+            "photondiff: warning: --edge-grid {n} is no finer than --view-grid {}: edge pixels \
+             are rendered on the view grid (an edge grid above the view grid refines them)",
+            args.view_grid
+        );
+    }
     let photon_options = PhotonOptions {
         radiance_map: args.gather_rays > 0,
         ..args.photons.options(&defaults, args.seed)?

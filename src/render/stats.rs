@@ -214,12 +214,26 @@ impl MapStats {
             && self.stored == 0
     }
 
+    /// Why the cap came first: "rarely" only where fewer than half the photons were stored (a
+    /// map 97% full was told its scene rarely stores such photons); nearer to full, how many
+    /// emissions a stored photon took, against the cap's emissions a photon.
+    fn why_short(&self) -> String {
+        if self.stored == 0 || self.stored.saturating_mul(2) < self.asked {
+            return "this scene rarely stores such photons".into();
+        }
+        let per_stored = self.emitted as f64 / self.stored as f64;
+        let per_asked = self.emitted as f64 / self.asked.max(1) as f64;
+        format!(
+            "this scene stores one such photon in {per_stored:.1} emissions, the cap allows \
+             {per_asked:.1}"
+        )
+    }
+
     /// What to tell the user when the map holds fewer photons than asked for, if it does.
     pub fn shortfall(&self) -> Option<String> {
         self.cap_reached.then(|| {
             format!(
-                "{} map: {} of {} photons stored: emission stopped {} {} emissions; this scene \
-                 rarely stores such photons",
+                "{} map: {} of {} photons stored: emission stopped {} {} emissions; {}",
                 self.class.name(),
                 self.stored,
                 self.asked,
@@ -228,6 +242,7 @@ impl MapStats {
                     false => "at its cap of",
                 },
                 self.emitted,
+                self.why_short(),
             )
         })
     }
@@ -492,6 +507,40 @@ mod tests {
             rate(&stats),
             "2.00 M rays/s over 2 threads (0.20 M camera rays/s, final gathering's rays included)"
         );
+    }
+
+    /// A map cut short by its cap is told its scene "rarely" stores such photons only where
+    /// fewer than half were stored; a nearly full one is given the rates.
+    #[test]
+    fn a_nearly_full_map_is_not_told_its_scene_rarely_stores_photons() {
+        let map = |stored| MapStats {
+            class: PathClass::Global,
+            emitted: 400_000,
+            stored,
+            rays: 0,
+            power: 0.0,
+            guards: Guards::default(),
+            asked: 100_000,
+            cap_reached: true,
+        };
+        assert_eq!(
+            map(97_000).shortfall().unwrap(),
+            "global map: 97000 of 100000 photons stored: emission stopped at its cap of 400000 \
+             emissions; this scene stores one such photon in 4.1 emissions, the cap allows 4.0"
+        );
+        assert!(map(49_999)
+            .shortfall()
+            .unwrap()
+            .ends_with("400000 emissions; this scene rarely stores such photons"));
+        assert!(map(0)
+            .shortfall()
+            .unwrap()
+            .ends_with("rarely stores such photons"));
+        let full = MapStats {
+            cap_reached: false,
+            ..map(100_000)
+        };
+        assert_eq!(full.shortfall(), None);
     }
 
     #[test]
