@@ -8,6 +8,9 @@
 //! non-finite positions) are errors naming the file and the element or line; a header that
 //! lies about its counts is refused before anything big is allocated.
 
+mod ear_clip;
+#[cfg(test)]
+mod ear_clip_reference;
 pub mod obj;
 pub mod ply;
 pub mod repair;

@@ -2,13 +2,16 @@
 //! plane when it is not (a fan would cover area outside a concave polygon). Triangles keep the
 //! polygon's winding.
 
+use super::ear_clip::{ear_clip, Ring};
 use crate::util::reserve;
 use glam::{DVec2, DVec3};
 
-/// Concave polygons with more vertices than this are refused: ear clipping is quadratic in
-/// the vertex count (0.3 s at 16,384 vertices, 4.5 s at 65,536). Convex ones of any size are
-/// fanned. (They were fanned above 4,096 whether convex or not, which covered area outside a
-/// concave outline without a word.)
+/// Concave polygons with more vertices than this are refused: ear clipping's worst case is
+/// quadratic in the vertex count (testing every corner against every ear took 0.5 s at 16,384
+/// vertices and 4.5 s at 65,536; the grid of `mesh_file::ear_clip` takes 0.015-0.025 s at
+/// 16,384 on a star and a comb, but a polygon can still make it test most corners at every
+/// ear). Convex ones of any size are fanned. (They were fanned above 4,096 whether convex or
+/// not, which covered area outside a concave outline without a word.)
 pub const MAX_EAR_CLIPPED: usize = 16_384;
 
 /// What triangulating one polygon found.
@@ -121,7 +124,7 @@ pub fn triangulate(
         return Shape::TooLarge;
     }
     let once = winds_once(&scratch.points);
-    if ear_clip(scratch, &mut emit) && once != Some(false) {
+    if ear_clip(&scratch.points, &mut scratch.ring, &mut emit) && once != Some(false) {
         Shape::Concave
     } else {
         Shape::Crossing
@@ -165,13 +168,14 @@ fn turn_angle(a: DVec2, b: DVec2) -> Option<f64> {
 #[derive(Debug, Default)]
 pub struct Scratch {
     points: Vec<DVec2>,
-    ring: Vec<usize>,
+    ring: Ring,
 }
 
 impl Scratch {
     /// Makes room for a polygon of `n` corners, or says it does not fit in the memory the
     /// process may still take: a face of ten million corners takes 160 MB of points in its
-    /// plane while it is triangulated (and aborted under a memory limit, unchecked).
+    /// plane while it is triangulated (and aborted under a memory limit, unchecked). (The
+    /// ring's buffers are for ear clipping alone, at most [`MAX_EAR_CLIPPED`] corners.)
     pub fn make_room(&mut self, n: usize) -> Result<(), String> {
         if self.points.capacity() >= n {
             return Ok(());
@@ -180,67 +184,6 @@ impl Scratch {
         let what = format!("a polygon of {n} corners: its points in its plane");
         reserve::reserve_exact(&mut self.points, n, &what)
     }
-}
-
-/// Ear clipping over `scratch.points` (counter-clockwise): clips a convex corner whose
-/// triangle holds no other remaining reflex corner, until three are left (a convex corner
-/// inside the triangle cannot be there without a reflex one; and a corner on one of the
-/// triangle's own corners, as where a hole is joined to its outline by a slit, is that corner
-/// again: either blocked every ear of a keyhole, which was fanned over its hole). Collinear
-/// corners are clipped without a triangle (it would have zero area). A polygon with no ear (it
-/// crosses itself) is fanned from what remains, and `false` says so.
-fn ear_clip(scratch: &mut Scratch, emit: &mut impl FnMut([usize; 3])) -> bool {
-    let Scratch { points, ring } = scratch;
-    ring.clear();
-    ring.extend(0..points.len());
-    let cross = |a: DVec2, b: DVec2, c: DVec2| (b - a).perp_dot(c - b);
-    let mut i = 0;
-    let mut since_last_clip = 0;
-    let mut clipped_whole = true;
-    while ring.len() > 3 {
-        let m = ring.len();
-        let (ip, inext) = ((i + m - 1) % m, (i + 1) % m);
-        let (a, b, c) = (points[ring[ip]], points[ring[i]], points[ring[inext]]);
-        let turn = cross(a, b, c);
-        let scale = (b - a).length_squared().max((c - b).length_squared());
-        let is_ear = if turn.abs() <= 1e-12 * scale {
-            true // collinear: removing it changes nothing
-        } else {
-            turn > 0.0
-                && !(0..m).any(|j| {
-                    let p = points[ring[j]];
-                    let (before, after) =
-                        (points[ring[(j + m - 1) % m]], points[ring[(j + 1) % m]]);
-                    p != a
-                        && p != b
-                        && p != c
-                        && cross(before, p, after) <= 0.0
-                        && cross(a, b, p) >= 0.0
-                        && cross(b, c, p) >= 0.0
-                        && cross(c, a, p) >= 0.0
-                })
-        };
-        if is_ear {
-            if turn.abs() > 1e-12 * scale {
-                emit([ring[ip], ring[i], ring[inext]]);
-            }
-            ring.remove(i);
-            // The corner before the clipped one changed: look at it next.
-            i = (i + ring.len() - 1) % ring.len();
-            since_last_clip = 0;
-        } else {
-            i = (i + 1) % m;
-            since_last_clip += 1;
-            if since_last_clip > m {
-                clipped_whole = false; // no ear: a self-intersecting polygon
-                break;
-            }
-        }
-    }
-    for w in ring[1..].windows(2) {
-        emit([ring[0], w[0], w[1]]);
-    }
-    clipped_whole
 }
 
 #[cfg(test)]
