@@ -35,6 +35,9 @@ pub struct Ring {
     /// How far past a triangle's bounds corners are looked for: the sign tests' rounding can
     /// count a corner a hair outside the triangle, as testing every corner did.
     margin: f64,
+    /// The corners a rebuild lists, kept so that no polygon allocates once the buffers are
+    /// grown.
+    gathered: Vec<u32>,
 }
 
 /// A uniform grid over some corners: cell `k` holds `items[start[k]..start[k + 1]]`.
@@ -167,10 +170,13 @@ impl Ring {
             (0..n).map(|k| cross(points[(k + n - 1) % n], points[k], points[(k + 1) % n]) <= 0.0),
         );
         self.reflex_left = self.reflex.iter().filter(|&&r| r).count();
+        // Every reflex corner listed as an extra one, for the first build to bin.
         self.listed.clear();
-        self.listed.resize(n, false);
+        self.listed.extend(self.reflex.iter().copied());
         self.grid.items.clear();
         self.extra.clear();
+        self.extra
+            .extend((0..n as u32).filter(|&k| self.reflex[k as usize]));
         let (lo, hi) = points.iter().fold(
             (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
             |(lo, hi), &p| (lo.min(p), hi.max(p)),
@@ -179,14 +185,18 @@ impl Ring {
         // well as with the polygon's.
         let reach = lo.abs().max(hi.abs()).max_element();
         self.margin = 1e-9 * ((hi.x - lo.x) + (hi.y - lo.y) + reach);
-        self.rebuild(
-            points,
-            (0..n as u32).filter(|&k| self.reflex[k as usize]).collect(),
-        );
+        self.rebuild(points);
     }
 
-    /// The grid of `corners` (the alive reflex ones), the rest unlisted.
-    fn rebuild(&mut self, points: &[DVec2], corners: Vec<u32>) {
+    /// The grid of the listed corners that are still alive and reflex, the rest unlisted.
+    fn rebuild(&mut self, points: &[DVec2]) {
+        let mut corners = std::mem::take(&mut self.gathered);
+        corners.clear();
+        corners.extend(
+            (self.grid.items.iter().chain(&self.extra))
+                .copied()
+                .filter(|&k| self.alive[k as usize] && self.reflex[k as usize]),
+        );
         for &k in self.grid.items.iter().chain(&self.extra) {
             self.listed[k as usize] = false;
         }
@@ -195,6 +205,7 @@ impl Ring {
         }
         self.extra.clear();
         self.grid.build(points, &corners);
+        self.gathered = corners;
     }
 
     fn update_reflex(&mut self, points: &[DVec2], k: usize) {
@@ -239,11 +250,7 @@ impl Ring {
         // many: a rebuild costs what it lists, so the rebuilds cost O(n) in all.
         let listed = self.grid.items.len() + self.extra.len();
         if self.reflex_left * 2 < listed || self.extra.len() > 16 + self.grid.items.len() / 4 {
-            let corners = (self.grid.items.iter().chain(&self.extra))
-                .copied()
-                .filter(|&k| self.alive[k as usize] && self.reflex[k as usize])
-                .collect();
-            self.rebuild(points, corners);
+            self.rebuild(points);
         }
         let inside = |k: u32| {
             let (k, p) = (k as usize, points[k as usize]);
