@@ -8,6 +8,7 @@
 //!
 //! Run: `cargo bench --bench ear_clipping`.
 
+mod common;
 #[path = "../src/scene/mesh_file/ear_clip_reference.rs"]
 mod ear_clip_reference;
 
@@ -17,12 +18,9 @@ use photondiff::scene::mesh_file::triangulate::{triangulate, Scratch, Shape, MAX
 use std::io::Write;
 use std::time::Instant;
 
-const REPEATS: usize = 5;
+use common::median;
 
-fn median(mut t: Vec<f64>) -> f64 {
-    t.sort_by(f64::total_cmp);
-    t[t.len() / 2]
-}
+const REPEATS: usize = 5;
 
 /// A star of `n` corners, alternately at radius 1 and 0.9, counter-clockwise.
 fn star(n: usize) -> Vec<DVec2> {
