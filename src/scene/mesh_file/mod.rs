@@ -207,6 +207,15 @@ pub fn load_mesh_reporting(path: &Path, read: &dyn Fn(u64)) -> Result<LoadedMesh
     Ok(LoadedMesh { mesh, report })
 }
 
+/// A new mesh buffer of room for `n` elements, through [`reserve::reserve_exact`]'s checks,
+/// advised huge pages before anything is written to it ([`advise_huge_pages`]).
+fn mesh_buffer<T>(n: usize, what: &str) -> Result<Vec<T>, String> {
+    let mut v = Vec::new();
+    reserve::reserve_exact(&mut v, n, what)?;
+    advise_huge_pages(&mut v);
+    Ok(v)
+}
+
 /// [`reserve::make_room`] for a mesh buffer (positions, normals, triangles): where it takes a
 /// new allocation, that is advised huge pages before it is written further
 /// ([`advise_huge_pages`]: Embree and hit completion read these buffers at random).

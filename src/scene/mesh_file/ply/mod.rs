@@ -11,8 +11,8 @@ pub mod write;
 
 use super::repair::bad_position;
 use super::triangulate::{triangulate, Scratch, Shape};
-use super::{make_room_in_mesh, MeshReport};
-use crate::embree::{advise_huge_pages, TriangleMesh};
+use super::{make_room_in_mesh, mesh_buffer, MeshReport};
+use crate::embree::TriangleMesh;
 use crate::util::reserve;
 use header::{Element, Format, Header};
 use std::path::Path;
@@ -204,26 +204,16 @@ impl Sink {
         let what = format!("its {vertices} vertices and {} faces", face.count);
         let elements = vertices + 1 + layout.normal.map_or(0, |_| vertices) + triangles;
         reserve::check(elements as u64 * 12, &what)?;
-        let mut positions = Vec::new();
-        // One more: the padding Embree reads past the last vertex.
-        reserve::reserve_exact(&mut positions, vertices + 1, &what)?;
-        advise_huge_pages(&mut positions);
+        // One more position: the padding Embree reads past the last vertex.
+        let positions = mesh_buffer(vertices + 1, &what)?;
         let normals = match layout.normal {
-            Some(_) => {
-                let mut normals = Vec::new();
-                reserve::reserve_exact(&mut normals, vertices, &what)?;
-                advise_huge_pages(&mut normals);
-                Some(normals)
-            }
+            Some(_) => Some(mesh_buffer(vertices, &what)?),
             None => None,
         };
-        let mut reserved = Vec::new();
-        reserve::reserve_exact(&mut reserved, triangles, &what)?;
-        advise_huge_pages(&mut reserved);
         Ok(Sink {
             positions,
             normals,
-            triangles: reserved,
+            triangles: mesh_buffer(triangles, &what)?,
             vertex_count: vertices as u64,
             deferred: Vec::new(),
             corners: Vec::new(),
